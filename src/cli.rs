@@ -1,0 +1,75 @@
+//! What every binary shares: the error-to-exit-code wrapper and the render options that mean the
+//! same in every renderer (DESIGN §2).
+
+use crate::error::{Error, Result};
+use crate::render::Budget;
+use crate::scene::MAX_DEPTH_LIMIT;
+use std::process::ExitCode;
+
+/// Run a tool's body: errors print as one line `TOOL: FILE: what is wrong` and exit with 2.
+pub fn main_with(tool: &str, run: impl FnOnce() -> Result<ExitCode>) -> ExitCode {
+    match run() {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("{tool}: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Render options shared by `mixmc-omc`, `mixmc-mmlt` and `mixmc-mix`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Samples per pixel [default: 64 unless --time is given].
+    #[arg(long, conflicts_with = "time")]
+    pub spp: Option<u64>,
+    /// Render for this many seconds instead of a fixed sample count.
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Seed of every random number; the same seed and sample count give the same image.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Largest path depth (scattering vertices) [default: the scene's max_depth].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+impl RenderArgs {
+    pub fn budget(&self, default_spp: u64) -> Result<Budget> {
+        match (self.spp, self.time) {
+            (Some(0), _) => Err(Error::new("--spp must be at least 1")),
+            (Some(n), _) => Ok(Budget::Passes(n)),
+            (None, Some(t)) if t.is_finite() && t > 0.0 => Ok(Budget::Seconds(t)),
+            (None, Some(t)) => Err(Error::new(format!("--time {t} must be a positive number of seconds"))),
+            (None, None) => Ok(Budget::Passes(default_spp)),
+        }
+    }
+
+    pub fn max_depth(&self, scene_default: u32) -> Result<u32> {
+        match self.max_depth {
+            Some(d) if d > MAX_DEPTH_LIMIT => Err(Error::new(format!("--max-depth {d} exceeds {MAX_DEPTH_LIMIT}"))),
+            Some(d) => Ok(d),
+            None => Ok(scene_default),
+        }
+    }
+
+    /// Size rayon's global pool; call once, before any parallel work.
+    pub fn init_threads(&self) -> Result<()> {
+        if let Some(n) = self.threads {
+            if n == 0 {
+                return Err(Error::new("--threads must be at least 1"));
+            }
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,197 @@
+//! EXR files as the tools exchange them (DESIGN §3): one layer of named float channels
+//! (`R`, `direct.R`, `N.X`, …) plus `mixmc.*` header attributes. Reading accepts any layout:
+//! channels of named layers come back as `layer.channel`, so other renderers' files work too.
+
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
+use exr::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A header attribute value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Attr {
+    Text(String),
+    Float(f64),
+}
+
+/// An image of named float channels, row-major, top row first.
+#[derive(Clone, Debug, Default)]
+pub struct ExrImage {
+    pub width: usize,
+    pub height: usize,
+    pub channels: Vec<(String, Vec<f32>)>,
+    pub attributes: BTreeMap<String, Attr>,
+}
+
+/// Refuse files whose header asks for more than this many samples (channels × pixels) before
+/// allocating: a corrupt or hostile header must not exhaust memory.
+pub const MAX_SAMPLES: usize = 1 << 31;
+
+impl ExrImage {
+    pub fn new(width: usize, height: usize) -> Self {
+        ExrImage { width, height, ..Default::default() }
+    }
+
+    pub fn add(&mut self, name: &str, data: Vec<f32>) {
+        debug_assert_eq!(data.len(), self.width * self.height);
+        self.channels.retain(|(n, _)| n != name);
+        self.channels.push((name.to_string(), data));
+    }
+
+    /// Add three channels `prefix.R/G/B` (or `R,G,B` for an empty prefix) from RGB triples.
+    pub fn add_rgb(&mut self, prefix: &str, names: [&str; 3], data: &[[f32; 3]]) {
+        for (c, n) in names.iter().enumerate() {
+            let name = if prefix.is_empty() { n.to_string() } else { format!("{prefix}.{n}") };
+            self.add(&name, data.iter().map(|p| p[c]).collect());
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<&[f32]> {
+        self.channels.iter().find(|(n, _)| n == name).map(|(_, d)| d.as_slice())
+    }
+
+    /// A channel that must be there; the error lists what the file has.
+    pub fn require(&self, name: &str) -> Result<&[f32]> {
+        self.get(name).ok_or_else(|| {
+            let have: Vec<&str> = self.channels.iter().map(|(n, _)| n.as_str()).collect();
+            Error::new(format!("missing channel `{name}` (file has: {})", have.join(", ")))
+        })
+    }
+
+    /// Three channels as RGB triples.
+    pub fn require_rgb(&self, names: [&str; 3]) -> Result<Vec<[f32; 3]>> {
+        let (r, g, b) = (self.require(names[0])?, self.require(names[1])?, self.require(names[2])?);
+        Ok((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
+    }
+
+    pub fn set_text(&mut self, key: &str, value: impl Into<String>) {
+        self.attributes.insert(key.to_string(), Attr::Text(value.into()));
+    }
+
+    pub fn set_float(&mut self, key: &str, value: f64) {
+        self.attributes.insert(key.to_string(), Attr::Float(value));
+    }
+
+    pub fn float_attr(&self, key: &str) -> Option<f64> {
+        match self.attributes.get(key)? {
+            Attr::Float(v) => Some(*v),
+            Attr::Text(t) => t.parse().ok(),
+        }
+    }
+
+    pub fn text_attr(&self, key: &str) -> Option<String> {
+        match self.attributes.get(key)? {
+            Attr::Text(t) => Some(t.clone()),
+            Attr::Float(v) => Some(v.to_string()),
+        }
+    }
+
+    /// Read every channel of every layer as f32.
+    pub fn read(path: &Path) -> Result<ExrImage> {
+        let fail = |e: exr::error::Error| Error::in_file(path, format!("not a readable EXR: {e}"));
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(fail)?;
+        let mut samples = 0usize;
+        for h in &meta.headers {
+            let px = h.layer_size.width().saturating_mul(h.layer_size.height());
+            samples = samples.saturating_add(px.saturating_mul(h.channels.list.len()));
+        }
+        if samples > MAX_SAMPLES {
+            return Err(Error::in_file(path, format!("EXR header asks for {samples} samples, more than the limit {MAX_SAMPLES}")));
+        }
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(path)
+            .map_err(fail)?;
+        let mut out = ExrImage::default();
+        for (li, layer) in image.layer_data.iter().enumerate() {
+            let (w, h) = (layer.size.width(), layer.size.height());
+            if li == 0 {
+                out.width = w;
+                out.height = h;
+            } else if (w, h) != (out.width, out.height) {
+                return Err(Error::in_file(path, "EXR parts have different sizes"));
+            }
+            let prefix = layer.attributes.layer_name.as_ref().map(|n| format!("{n}."));
+            for ch in &layer.channel_data.list {
+                let name = format!("{}{}", prefix.as_deref().unwrap_or(""), ch.name);
+                out.channels.push((name, ch.sample_data.values_as_f32().collect()));
+            }
+            for (k, v) in &layer.attributes.other {
+                let value = match v {
+                    AttributeValue::Text(t) => Attr::Text(t.to_string()),
+                    AttributeValue::F32(f) => Attr::Float(*f as f64),
+                    AttributeValue::F64(f) => Attr::Float(*f),
+                    AttributeValue::I32(i) => Attr::Float(*i as f64),
+                    _ => continue,
+                };
+                out.attributes.insert(k.to_string(), value);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Write atomically as one layer; `half` stores the colour data as 16-bit floats.
+    pub fn write(&self, path: &Path, half: bool) -> Result<()> {
+        let channels: Vec<AnyChannel<FlatSamples>> = self
+            .channels
+            .iter()
+            .map(|(name, data)| {
+                let samples = if half {
+                    FlatSamples::F16(data.iter().map(|v| f16::from_f32(*v)).collect())
+                } else {
+                    FlatSamples::F32(data.clone())
+                };
+                AnyChannel::new(name.as_str(), samples)
+            })
+            .collect();
+        let mut attributes = LayerAttributes::default();
+        for (k, v) in &self.attributes {
+            let value = match v {
+                Attr::Text(t) => AttributeValue::Text(Text::from(t.as_str())),
+                Attr::Float(f) => AttributeValue::F64(*f),
+            };
+            attributes.other.insert(Text::from(k.as_str()), value);
+        }
+        let layer = Layer::new(
+            (self.width, self.height),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(smallvec::SmallVec::from_vec(channels)),
+        );
+        write_atomic(path, |tmp| {
+            Image::from_layer(layer)
+                .write()
+                .to_file(tmp)
+                .map_err(|e| Error::in_file(path, format!("cannot write EXR: {e}")))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_channels_and_attributes() {
+        let mut img = ExrImage::new(3, 2);
+        img.add("R", vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.5]);
+        img.add("direct.R", vec![0.5; 6]);
+        img.set_text("mixmc.tool", "test");
+        img.set_float("mixmc.spp", 64.0);
+        let path = std::env::temp_dir().join(format!("mixmc-exrio-{}.exr", std::process::id()));
+        img.write(&path, false).unwrap();
+        let back = ExrImage::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!((back.width, back.height), (3, 2));
+        assert_eq!(back.require("R").unwrap(), img.get("R").unwrap());
+        assert_eq!(back.require("direct.R").unwrap(), &[0.5; 6]);
+        assert_eq!(back.text_attr("mixmc.tool").as_deref(), Some("test"));
+        assert_eq!(back.float_attr("mixmc.spp"), Some(64.0));
+        assert!(back.require("G").unwrap_err().message.contains("direct.R"));
+    }
+}

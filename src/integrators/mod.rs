@@ -1,0 +1,40 @@
+//! Ordinary Monte Carlo integrators. Each renders in passes: a pass adds one sample per pixel
+//! (gathering methods) or one light path per pixel (splatting methods) to a [`Film`].
+
+pub mod pt;
+
+use crate::film::Film;
+use crate::scene::Scene;
+
+/// The OMC methods of `mixmc-omc --method`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Path tracing with next-event estimation and MIS.
+    Pt,
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Pt => "pt",
+        }
+    }
+
+    /// Add pass number `pass` of a render with `seed` to `film`. Passes are independent: the
+    /// same (seed, pass) always adds the same values, whatever the thread count.
+    pub fn render_pass(self, scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {
+        match self {
+            Method::Pt => pt::render_pass(scene, max_depth, seed, pass, film),
+        }
+    }
+}
+
+/// MIS power heuristic (β = 2) for two strategies with densities `a` (the one used) and `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2.is_infinite() { 1.0 } else if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Russian roulette starts after this many scattering vertices (Mitsuba's `rr_depth`).
+pub const RR_DEPTH: u32 = 5;

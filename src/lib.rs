@@ -1,0 +1,22 @@
+//! mixmc: mixing ordinary and Markov chain Monte Carlo rendering (Frolov, Galaktionov, Sanzharov).
+//! A library of small modules with thin binaries in `src/bin/`; see DESIGN.md for the contracts.
+
+pub mod accel;
+pub mod bsdf;
+pub mod camera;
+pub mod cli;
+pub mod error;
+pub mod exrio;
+pub mod film;
+pub mod integrators;
+pub mod lights;
+pub mod math;
+pub mod omc;
+pub mod output;
+pub mod progress;
+pub mod render;
+pub mod rng;
+pub mod scene;
+pub mod signal;
+
+pub use error::{Error, Result};

@@ -1,0 +1,37 @@
+//! `mixmc-omc`: render a scene with an OMC method into the AOV image of DESIGN §3.
+
+use crate::exrio::ExrImage;
+use crate::film::{GBuffer, omc_image};
+use crate::integrators::Method;
+use crate::render::{Budget, run_passes};
+use crate::scene::Scene;
+
+/// Everything that decides an OMC render's values.
+#[derive(Clone, Debug)]
+pub struct OmcSettings {
+    pub method: Method,
+    pub max_depth: u32,
+    pub seed: u64,
+    pub budget: Budget,
+    pub quiet: bool,
+}
+
+/// Render and return the AOV image with its header attributes.
+pub fn render(scene: &Scene, s: &OmcSettings) -> ExrImage {
+    let (w, h) = (scene.width() as usize, scene.height() as usize);
+    let r = run_passes(w, h, s.budget, s.method.name(), s.quiet, |pass, film| {
+        s.method.render_pass(scene, s.max_depth, s.seed, pass, film)
+    });
+    let gbuf = GBuffer::trace(scene);
+    let mut img = omc_image(&r.film, &gbuf, r.passes);
+    img.set_text("mixmc.tool", "mixmc-omc");
+    img.set_text("mixmc.method", s.method.name());
+    img.set_text("mixmc.scene", scene.path.display().to_string());
+    img.set_float("mixmc.seed", s.seed as f64);
+    img.set_float("mixmc.spp", r.passes as f64);
+    img.set_float("mixmc.seconds", r.seconds);
+    img.set_float("mixmc.max_depth", s.max_depth as f64);
+    img.set_text("mixmc.partial", if r.partial { "true" } else { "false" });
+    img.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
+    img
+}

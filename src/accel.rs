@@ -53,7 +53,10 @@ struct Aabb {
 }
 
 impl Aabb {
-    const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
     fn grow(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
@@ -74,7 +77,12 @@ impl Bvh {
         let mut tris: Vec<Tri> = triangles
             .iter()
             .enumerate()
-            .map(|(i, t)| Tri { p0: t[0], e1: t[1] - t[0], e2: t[2] - t[0], id: i as u32 })
+            .map(|(i, t)| Tri {
+                p0: t[0],
+                e1: t[1] - t[0],
+                e2: t[2] - t[0],
+                id: i as u32,
+            })
             .collect();
         let boxes: Vec<Aabb> = triangles
             .iter()
@@ -86,7 +94,12 @@ impl Bvh {
             .collect();
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
         let centroids: Vec<Vec3> = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let mut nodes = vec![Node { min: Vec3::ZERO, first: 0, max: Vec3::ZERO, count: 0 }];
+        let mut nodes = vec![Node {
+            min: Vec3::ZERO,
+            first: 0,
+            max: Vec3::ZERO,
+            count: 0,
+        }];
         if !tris.is_empty() {
             build(&mut nodes, 0, &mut order, 0, &boxes, &centroids);
         }
@@ -96,14 +109,24 @@ impl Bvh {
 
     /// Nearest intersection with t in (0, t_max).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let mut best = Hit { t: t_max, prim: u32::MAX, b1: 0.0, b2: 0.0 };
+        let mut best = Hit {
+            t: t_max,
+            prim: u32::MAX,
+            b1: 0.0,
+            b2: 0.0,
+        };
         self.traverse(ray, &mut best, false);
         (best.prim != u32::MAX).then_some(best)
     }
 
     /// Whether anything blocks the ray in (0, t_max).
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        let mut best = Hit { t: t_max, prim: u32::MAX, b1: 0.0, b2: 0.0 };
+        let mut best = Hit {
+            t: t_max,
+            prim: u32::MAX,
+            b1: 0.0,
+            b2: 0.0,
+        };
         self.traverse(ray, &mut best, true);
         best.prim != u32::MAX
     }
@@ -125,7 +148,12 @@ impl Bvh {
                 let first = node.first as usize;
                 for tri in &self.tris[first..first + node.count as usize] {
                     if let Some((t, b1, b2)) = intersect_tri(tri, ray, best.t) {
-                        *best = Hit { t, prim: tri.id, b1, b2 };
+                        *best = Hit {
+                            t,
+                            prim: tri.id,
+                            b1,
+                            b2,
+                        };
                         if any {
                             return;
                         }
@@ -138,7 +166,11 @@ impl Bvh {
                 let tr = slab(r, ray.origin, inv, best.t);
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (l, node.first + 1) } else { (r, node.first) };
+                        let (near, far) = if a <= b {
+                            (l, node.first + 1)
+                        } else {
+                            (r, node.first)
+                        };
                         stack[sp] = far;
                         sp += 1;
                         node = near;
@@ -202,7 +234,14 @@ fn intersect_tri(tri: &Tri, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
     (t > 0.0 && t < t_max).then_some((t, b1, b2))
 }
 
-fn build(nodes: &mut Vec<Node>, ni: usize, order: &mut [u32], first: usize, boxes: &[Aabb], cents: &[Vec3]) {
+fn build(
+    nodes: &mut Vec<Node>,
+    ni: usize,
+    order: &mut [u32],
+    first: usize,
+    boxes: &[Aabb],
+    cents: &[Vec3],
+) {
     let mut bounds = Aabb::EMPTY;
     let mut cbounds = Aabb::EMPTY;
     for &i in order.iter() {
@@ -259,7 +298,9 @@ fn build(nodes: &mut Vec<Node>, ni: usize, order: &mut [u32], first: usize, boxe
     let mid = if best.0.is_finite() {
         let (axis, k) = (best.1, best.2);
         let scale = BINS as f32 / extent[axis];
-        let bin = |i: &u32| (((cents[*i as usize][axis] - cbounds.min[axis]) * scale) as usize).min(BINS - 1);
+        let bin = |i: &u32| {
+            (((cents[*i as usize][axis] - cbounds.min[axis]) * scale) as usize).min(BINS - 1)
+        };
         partition(order, |i| bin(i) < k)
     } else {
         // All centroids coincide: split in the middle to bound leaf size.
@@ -268,7 +309,12 @@ fn build(nodes: &mut Vec<Node>, ni: usize, order: &mut [u32], first: usize, boxe
     let left = nodes.len();
     nodes[ni].first = left as u32;
     nodes[ni].count = 0;
-    let blank = Node { min: Vec3::ZERO, first: 0, max: Vec3::ZERO, count: 0 };
+    let blank = Node {
+        min: Vec3::ZERO,
+        first: 0,
+        max: Vec3::ZERO,
+        count: 0,
+    };
     nodes.push(blank);
     nodes.push(blank);
     let (lo, hi) = order.split_at_mut(mid);
@@ -297,7 +343,9 @@ mod tests {
         (0..n)
             .map(|_| {
                 let c = Vec3::new(r.next_1d(), r.next_1d(), r.next_1d()) * 10.0;
-                let d = |r: &mut Rng| Vec3::new(r.next_1d() - 0.5, r.next_1d() - 0.5, r.next_1d() - 0.5);
+                let d = |r: &mut Rng| {
+                    Vec3::new(r.next_1d() - 0.5, r.next_1d() - 0.5, r.next_1d() - 0.5)
+                };
                 [c + d(&mut r), c + d(&mut r), c + d(&mut r)]
             })
             .collect()
@@ -314,8 +362,15 @@ mod tests {
             let ray = Ray { origin: o, dir: d };
             let mut brute: Option<(f32, u32)> = None;
             for (i, t) in tris.iter().enumerate() {
-                let tri = Tri { p0: t[0], e1: t[1] - t[0], e2: t[2] - t[0], id: i as u32 };
-                if let Some((t, _, _)) = intersect_tri(&tri, &ray, brute.map_or(f32::INFINITY, |b| b.0)) {
+                let tri = Tri {
+                    p0: t[0],
+                    e1: t[1] - t[0],
+                    e2: t[2] - t[0],
+                    id: i as u32,
+                };
+                if let Some((t, _, _)) =
+                    intersect_tri(&tri, &ray, brute.map_or(f32::INFINITY, |b| b.0))
+                {
                     brute = Some((t, i as u32));
                 }
             }

@@ -16,13 +16,23 @@ pub enum Mode {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
-    Diffuse { albedo: Rgb },
-    Mirror { reflectance: Rgb },
+    Diffuse {
+        albedo: Rgb,
+    },
+    Mirror {
+        reflectance: Rgb,
+    },
     /// Smooth dielectric; `eta` is the inside's index over the outside's (outside is vacuum).
-    Glass { eta: f32, transmittance: Rgb },
+    Glass {
+        eta: f32,
+        transmittance: Rgb,
+    },
     /// GGX microfacet reflector with perfect (F = 1) Fresnel, like Mitsuba's `roughconductor`
     /// with `material=none`; `alpha` is GGX α.
-    Glossy { reflectance: Rgb, alpha: f32 },
+    Glossy {
+        reflectance: Rgb,
+        alpha: f32,
+    },
 }
 
 /// A sampled direction.
@@ -69,7 +79,9 @@ impl Bsdf {
             Bsdf::Diffuse { albedo } => albedo * INV_PI,
             Bsdf::Glossy { reflectance, alpha } => {
                 let h = (o + i).normalize();
-                reflectance * (ggx_d(h, alpha) * smith_g1(o, h, alpha) * smith_g1(i, h, alpha) / (4.0 * o.z * i.z))
+                reflectance
+                    * (ggx_d(h, alpha) * smith_g1(o, h, alpha) * smith_g1(i, h, alpha)
+                        / (4.0 * o.z * i.z))
             }
             Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Rgb::ZERO,
         }
@@ -109,11 +121,23 @@ impl Bsdf {
                 if i.z <= 0.0 {
                     return None;
                 }
-                Some(BsdfSample { wi: to_world(i), f: albedo * INV_PI, pdf: i.z * INV_PI, delta: false, eta: 1.0 })
+                Some(BsdfSample {
+                    wi: to_world(i),
+                    f: albedo * INV_PI,
+                    pdf: i.z * INV_PI,
+                    delta: false,
+                    eta: 1.0,
+                })
             }
             Bsdf::Mirror { reflectance } => {
                 let i = Vec3::new(-o.x, -o.y, o.z);
-                Some(BsdfSample { wi: to_world(i), f: reflectance / i.z, pdf: 1.0, delta: true, eta: 1.0 })
+                Some(BsdfSample {
+                    wi: to_world(i),
+                    f: reflectance / i.z,
+                    pdf: 1.0,
+                    delta: true,
+                    eta: 1.0,
+                })
             }
             Bsdf::Glossy { reflectance, alpha } => {
                 let h = sample_ggx_vndf(o, alpha, u);
@@ -128,7 +152,13 @@ impl Bsdf {
                 if pdf <= 0.0 || !pdf.is_finite() {
                     return None;
                 }
-                Some(BsdfSample { wi: to_world(i), f, pdf, delta: false, eta: 1.0 })
+                Some(BsdfSample {
+                    wi: to_world(i),
+                    f,
+                    pdf,
+                    delta: false,
+                    eta: 1.0,
+                })
             }
             Bsdf::Glass { eta, transmittance } => {
                 // Relative index across the interface in the direction of travel of `wo`'s side.
@@ -137,12 +167,28 @@ impl Bsdf {
                 let (fr, cos_t) = fresnel_dielectric(cos_o, etap);
                 if uc < fr {
                     let i = Vec3::new(-lo.x, -lo.y, lo.z);
-                    Some(BsdfSample { wi: frame.to_world(i), f: Rgb::splat(fr / cos_o), pdf: fr, delta: true, eta: 1.0 })
+                    Some(BsdfSample {
+                        wi: frame.to_world(i),
+                        f: Rgb::splat(fr / cos_o),
+                        pdf: fr,
+                        delta: true,
+                        eta: 1.0,
+                    })
                 } else {
                     let i = Vec3::new(-lo.x / etap, -lo.y / etap, -side * cos_t);
-                    let scale = if mode == Mode::Radiance { 1.0 / (etap * etap) } else { 1.0 };
+                    let scale = if mode == Mode::Radiance {
+                        1.0 / (etap * etap)
+                    } else {
+                        1.0
+                    };
                     let f = transmittance * ((1.0 - fr) * scale / cos_t);
-                    Some(BsdfSample { wi: frame.to_world(i).normalize(), f, pdf: 1.0 - fr, delta: true, eta: etap })
+                    Some(BsdfSample {
+                        wi: frame.to_world(i).normalize(),
+                        f,
+                        pdf: 1.0 - fr,
+                        delta: true,
+                        eta: etap,
+                    })
                 }
             }
         }
@@ -153,7 +199,11 @@ impl Bsdf {
 fn opaque_local(frame: &Frame, wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     let o = frame.to_local(wo);
     let i = frame.to_local(wi);
-    if o.z < 0.0 { (Vec3::new(o.x, o.y, -o.z), Vec3::new(i.x, i.y, -i.z)) } else { (o, i) }
+    if o.z < 0.0 {
+        (Vec3::new(o.x, o.y, -o.z), Vec3::new(i.x, i.y, -i.z))
+    } else {
+        (o, i)
+    }
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric for incident cosine `cos_i` ≥ 0 and
@@ -194,7 +244,11 @@ fn smith_g1(v: Vec3, h: Vec3, alpha: f32) -> f32 {
 fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let vh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
     let lensq = vh.x * vh.x + vh.y * vh.y;
-    let t1 = if lensq > 0.0 { Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt() } else { Vec3::X };
+    let t1 = if lensq > 0.0 {
+        Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
+    } else {
+        Vec3::X
+    };
     let t2 = vh.cross(t1);
     let r = u.x.sqrt();
     let phi = 2.0 * PI * u.y;
@@ -223,7 +277,11 @@ mod tests {
                 if !s.delta {
                     // eval and pdf must agree with what sample returned.
                     let f = b.eval(ng, wo, s.wi);
-                    assert!((f - s.f).abs().max_element() <= 1e-3 * f.max_element().max(1.0), "{f} vs {}", s.f);
+                    assert!(
+                        (f - s.f).abs().max_element() <= 1e-3 * f.max_element().max(1.0),
+                        "{f} vs {}",
+                        s.f
+                    );
                     assert!((b.pdf(ng, wo, s.wi) - s.pdf).abs() <= 1e-3 * s.pdf.max(1.0));
                 }
             }
@@ -238,9 +296,14 @@ mod tests {
 
     #[test]
     fn diffuse_albedo_and_pdf() {
-        let b = Bsdf::Diffuse { albedo: Rgb::splat(0.5) };
+        let b = Bsdf::Diffuse {
+            albedo: Rgb::splat(0.5),
+        };
         let (a, m) = albedo_and_pdf_mass(&b, Vec3::new(0.3, 0.1, 0.9).normalize(), 200_000);
-        assert!((a.x - 0.5).abs() < 1e-3 && (m - 1.0).abs() < 0.02, "{a} {m}");
+        assert!(
+            (a.x - 0.5).abs() < 1e-3 && (m - 1.0).abs() < 0.02,
+            "{a} {m}"
+        );
         // Two-sided: from below it reflects below.
         let (a, _) = albedo_and_pdf_mass(&b, Vec3::new(0.3, 0.1, -0.9).normalize(), 10_000);
         assert!((a.x - 0.5).abs() < 1e-3);
@@ -265,18 +328,27 @@ mod tests {
     #[test]
     fn glossy_sampling_matches_its_integral() {
         for alpha in [0.1, 0.3, 0.6] {
-            let b = Bsdf::Glossy { reflectance: Rgb::ONE, alpha };
+            let b = Bsdf::Glossy {
+                reflectance: Rgb::ONE,
+                alpha,
+            };
             let wo = Vec3::new(0.5, 0.0, 0.8).normalize();
             let (a, m) = albedo_and_pdf_mass(&b, wo, 200_000);
             let q = albedo_quadrature(&b, wo);
-            assert!(a.x <= 1.0 + 1e-3 && (a.x - q).abs() < 0.01 * q, "alpha {alpha}: sampled {a}, quadrature {q}");
+            assert!(
+                a.x <= 1.0 + 1e-3 && (a.x - q).abs() < 0.01 * q,
+                "alpha {alpha}: sampled {a}, quadrature {q}"
+            );
             assert!(m <= 1.02 && m > 0.7, "alpha {alpha}: pdf mass {m}");
         }
     }
 
     #[test]
     fn glass_reflects_and_refracts_by_fresnel() {
-        let b = Bsdf::Glass { eta: 1.5, transmittance: Rgb::ONE };
+        let b = Bsdf::Glass {
+            eta: 1.5,
+            transmittance: Rgb::ONE,
+        };
         // Normal incidence: F = ((1.5-1)/(1.5+1))^2 = 0.04; importance is conserved exactly.
         let (f, _) = fresnel_dielectric(1.0, 1.5);
         assert!((f - 0.04).abs() < 1e-6);
@@ -284,29 +356,48 @@ mod tests {
         let mut refl = 0;
         let n = 100_000;
         for _ in 0..n {
-            let s = b.sample(Vec3::Z, Vec3::Z, rng.next_2d(), rng.next_1d(), Mode::Importance).unwrap();
+            let s = b
+                .sample(
+                    Vec3::Z,
+                    Vec3::Z,
+                    rng.next_2d(),
+                    rng.next_1d(),
+                    Mode::Importance,
+                )
+                .unwrap();
             if s.wi.z > 0.0 {
                 refl += 1;
                 assert!((s.weight(Vec3::Z).x - 1.0).abs() < 1e-5);
             } else {
-                assert!((s.wi + Vec3::Z).length() < 1e-5 && (s.weight(Vec3::Z).x - 1.0).abs() < 1e-5);
+                assert!(
+                    (s.wi + Vec3::Z).length() < 1e-5 && (s.weight(Vec3::Z).x - 1.0).abs() < 1e-5
+                );
             }
         }
         assert!((refl as f32 / n as f32 - 0.04).abs() < 0.003);
         // Radiance entering glass is divided by η².
-        let s = b.sample(Vec3::Z, Vec3::Z, Vec2::ZERO, 0.99, Mode::Radiance).unwrap();
+        let s = b
+            .sample(Vec3::Z, Vec3::Z, Vec2::ZERO, 0.99, Mode::Radiance)
+            .unwrap();
         assert!((s.weight(Vec3::Z).x - 1.0 / 2.25).abs() < 1e-5);
         // Total internal reflection from inside at grazing angles.
         let wo = Vec3::new(0.9, 0.0, -0.2).normalize();
-        let s = b.sample(Vec3::Z, wo, Vec2::ZERO, 0.999, Mode::Radiance).unwrap();
+        let s = b
+            .sample(Vec3::Z, wo, Vec2::ZERO, 0.999, Mode::Radiance)
+            .unwrap();
         assert!(s.wi.z < 0.0 && (s.weight(Vec3::Z).x - 1.0).abs() < 1e-5);
     }
 
     #[test]
     fn refraction_obeys_snell() {
-        let b = Bsdf::Glass { eta: 1.33, transmittance: Rgb::ONE };
+        let b = Bsdf::Glass {
+            eta: 1.33,
+            transmittance: Rgb::ONE,
+        };
         let wo = Vec3::new(0.6, 0.0, 0.8);
-        let s = b.sample(Vec3::Z, wo, Vec2::ZERO, 0.9999, Mode::Radiance).unwrap();
+        let s = b
+            .sample(Vec3::Z, wo, Vec2::ZERO, 0.9999, Mode::Radiance)
+            .unwrap();
         let sin_o = wo.x;
         let sin_i = (s.wi.x * s.wi.x + s.wi.y * s.wi.y).sqrt();
         assert!((sin_o - 1.33 * sin_i).abs() < 1e-5 && s.wi.z < 0.0 && s.wi.x < 0.0);

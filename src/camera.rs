@@ -17,14 +17,30 @@ pub struct Camera {
 }
 
 impl Camera {
-    pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fov_y_deg: f32, width: u32, height: u32) -> Camera {
+    pub fn new(
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        fov_y_deg: f32,
+        width: u32,
+        height: u32,
+    ) -> Camera {
         let forward = (look_at - position).normalize();
         // Right-handed, y up: with the camera looking down +z, screen right is −x.
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         let tan_half_y = (fov_y_deg.to_radians() * 0.5).tan();
         let tan_half_x = tan_half_y * width as f32 / height as f32;
-        Camera { position, forward, right, up, tan_half_y, tan_half_x, width, height }
+        Camera {
+            position,
+            forward,
+            right,
+            up,
+            tan_half_y,
+            tan_half_x,
+            width,
+            height,
+        }
     }
 
     /// Unit direction through continuous raster position (x right, y down, pixels of size 1).
@@ -77,7 +93,14 @@ mod tests {
 
     #[test]
     fn raster_inverts_ray_dir() {
-        let c = Camera::new(Vec3::new(1.0, 2.0, -5.0), Vec3::new(1.0, 2.0, 0.0), Vec3::Y, 40.0, 64, 48);
+        let c = Camera::new(
+            Vec3::new(1.0, 2.0, -5.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::Y,
+            40.0,
+            64,
+            48,
+        );
         for (x, y) in [(0.5, 0.5), (10.25, 30.75), (63.9, 47.9), (32.0, 24.0)] {
             let (rx, ry) = c.raster(c.ray_dir(x, y)).unwrap();
             assert!((rx - x).abs() < 1e-3 && (ry - y).abs() < 1e-3);

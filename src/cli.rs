@@ -46,14 +46,18 @@ impl RenderArgs {
             (Some(0), _) => Err(Error::new("--spp must be at least 1")),
             (Some(n), _) => Ok(Budget::Passes(n)),
             (None, Some(t)) if t.is_finite() && t > 0.0 => Ok(Budget::Seconds(t)),
-            (None, Some(t)) => Err(Error::new(format!("--time {t} must be a positive number of seconds"))),
+            (None, Some(t)) => Err(Error::new(format!(
+                "--time {t} must be a positive number of seconds"
+            ))),
             (None, None) => Ok(Budget::Passes(default_spp)),
         }
     }
 
     pub fn max_depth(&self, scene_default: u32) -> Result<u32> {
         match self.max_depth {
-            Some(d) if d > MAX_DEPTH_LIMIT => Err(Error::new(format!("--max-depth {d} exceeds {MAX_DEPTH_LIMIT}"))),
+            Some(d) if d > MAX_DEPTH_LIMIT => Err(Error::new(format!(
+                "--max-depth {d} exceeds {MAX_DEPTH_LIMIT}"
+            ))),
             Some(d) => Ok(d),
             None => Ok(scene_default),
         }

@@ -15,11 +15,17 @@ pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
     pub fn new(message: impl Into<String>) -> Self {
-        Error { file: None, message: message.into() }
+        Error {
+            file: None,
+            message: message.into(),
+        }
     }
 
     pub fn in_file(file: impl AsRef<Path>, message: impl Into<String>) -> Self {
-        Error { file: Some(file.as_ref().display().to_string()), message: message.into() }
+        Error {
+            file: Some(file.as_ref().display().to_string()),
+            message: message.into(),
+        }
     }
 
     /// Attach a file name unless the error already names one (the innermost file is the precise one).

@@ -30,7 +30,11 @@ pub const MAX_SAMPLES: usize = 1 << 31;
 
 impl ExrImage {
     pub fn new(width: usize, height: usize) -> Self {
-        ExrImage { width, height, ..Default::default() }
+        ExrImage {
+            width,
+            height,
+            ..Default::default()
+        }
     }
 
     pub fn add(&mut self, name: &str, data: Vec<f32>) {
@@ -42,31 +46,46 @@ impl ExrImage {
     /// Add three channels `prefix.R/G/B` (or `R,G,B` for an empty prefix) from RGB triples.
     pub fn add_rgb(&mut self, prefix: &str, names: [&str; 3], data: &[[f32; 3]]) {
         for (c, n) in names.iter().enumerate() {
-            let name = if prefix.is_empty() { n.to_string() } else { format!("{prefix}.{n}") };
+            let name = if prefix.is_empty() {
+                n.to_string()
+            } else {
+                format!("{prefix}.{n}")
+            };
             self.add(&name, data.iter().map(|p| p[c]).collect());
         }
     }
 
     pub fn get(&self, name: &str) -> Option<&[f32]> {
-        self.channels.iter().find(|(n, _)| n == name).map(|(_, d)| d.as_slice())
+        self.channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, d)| d.as_slice())
     }
 
     /// A channel that must be there; the error lists what the file has.
     pub fn require(&self, name: &str) -> Result<&[f32]> {
         self.get(name).ok_or_else(|| {
             let have: Vec<&str> = self.channels.iter().map(|(n, _)| n.as_str()).collect();
-            Error::new(format!("missing channel `{name}` (file has: {})", have.join(", ")))
+            Error::new(format!(
+                "missing channel `{name}` (file has: {})",
+                have.join(", ")
+            ))
         })
     }
 
     /// Three channels as RGB triples.
     pub fn require_rgb(&self, names: [&str; 3]) -> Result<Vec<[f32; 3]>> {
-        let (r, g, b) = (self.require(names[0])?, self.require(names[1])?, self.require(names[2])?);
+        let (r, g, b) = (
+            self.require(names[0])?,
+            self.require(names[1])?,
+            self.require(names[2])?,
+        );
         Ok((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
     }
 
     pub fn set_text(&mut self, key: &str, value: impl Into<String>) {
-        self.attributes.insert(key.to_string(), Attr::Text(value.into()));
+        self.attributes
+            .insert(key.to_string(), Attr::Text(value.into()));
     }
 
     pub fn set_float(&mut self, key: &str, value: f64) {
@@ -97,7 +116,10 @@ impl ExrImage {
             samples = samples.saturating_add(px.saturating_mul(h.channels.list.len()));
         }
         if samples > MAX_SAMPLES {
-            return Err(Error::in_file(path, format!("EXR header asks for {samples} samples, more than the limit {MAX_SAMPLES}")));
+            return Err(Error::in_file(
+                path,
+                format!("EXR header asks for {samples} samples, more than the limit {MAX_SAMPLES}"),
+            ));
         }
         let image = read()
             .no_deep_data()
@@ -116,10 +138,15 @@ impl ExrImage {
             } else if (w, h) != (out.width, out.height) {
                 return Err(Error::in_file(path, "EXR parts have different sizes"));
             }
-            let prefix = layer.attributes.layer_name.as_ref().map(|n| format!("{n}."));
+            let prefix = layer
+                .attributes
+                .layer_name
+                .as_ref()
+                .map(|n| format!("{n}."));
             for ch in &layer.channel_data.list {
                 let name = format!("{}{}", prefix.as_deref().unwrap_or(""), ch.name);
-                out.channels.push((name, ch.sample_data.values_as_f32().collect()));
+                out.channels
+                    .push((name, ch.sample_data.values_as_f32().collect()));
             }
             for (k, v) in &layer.attributes.other {
                 let value = match v {

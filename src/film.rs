@@ -20,7 +20,12 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: usize, height: usize) -> Film {
-        Film { width, height, direct: vec![Rgb::ZERO; width * height], indirect: vec![Rgb::ZERO; width * height] }
+        Film {
+            width,
+            height,
+            direct: vec![Rgb::ZERO; width * height],
+            indirect: vec![Rgb::ZERO; width * height],
+        }
     }
 
     /// Add a value of a path of the given depth to one pixel.
@@ -35,8 +40,14 @@ impl Film {
 
     /// Add another film's sums (in a fixed order, so results do not depend on threads).
     pub fn accumulate(&mut self, other: &Film) {
-        self.direct.par_iter_mut().zip(&other.direct).for_each(|(a, b)| *a += *b);
-        self.indirect.par_iter_mut().zip(&other.indirect).for_each(|(a, b)| *a += *b);
+        self.direct
+            .par_iter_mut()
+            .zip(&other.direct)
+            .for_each(|(a, b)| *a += *b);
+        self.indirect
+            .par_iter_mut()
+            .zip(&other.indirect)
+            .for_each(|(a, b)| *a += *b);
     }
 }
 
@@ -87,14 +98,21 @@ pub fn omc_image(film: &Film, gbuf: &GBuffer, spp: u64) -> ExrImage {
     let mut img = ExrImage::new(film.width, film.height);
     let direct = rgb_triples(&film.direct, scale);
     let indirect = rgb_triples(&film.indirect, scale);
-    let beauty: Vec<[f32; 3]> =
-        direct.iter().zip(&indirect).map(|(d, i)| [d[0] + i[0], d[1] + i[1], d[2] + i[2]]).collect();
+    let beauty: Vec<[f32; 3]> = direct
+        .iter()
+        .zip(&indirect)
+        .map(|(d, i)| [d[0] + i[0], d[1] + i[1], d[2] + i[2]])
+        .collect();
     const RGB: [&str; 3] = ["R", "G", "B"];
     img.add_rgb("", RGB, &beauty);
     img.add_rgb("direct", RGB, &direct);
     img.add_rgb("indirect", RGB, &indirect);
     img.add("Z", gbuf.z.clone());
-    img.add_rgb("N", ["X", "Y", "Z"], &gbuf.n.iter().map(|n| n.to_array()).collect::<Vec<_>>());
+    img.add_rgb(
+        "N",
+        ["X", "Y", "Z"],
+        &gbuf.n.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
+    );
     img.add("matid", gbuf.matid.clone());
     img.add_rgb("albedo", RGB, &rgb_triples(&gbuf.albedo, 1.0));
     img
@@ -102,8 +120,16 @@ pub fn omc_image(film: &Film, gbuf: &GBuffer, spp: u64) -> ExrImage {
 
 /// The sRGB transfer curve on a clamped linear value, to 8 bits.
 pub fn srgb8(v: f32) -> u8 {
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
     (s * 255.0 + 0.5) as u8
 }
 

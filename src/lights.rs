@@ -60,7 +60,13 @@ impl Lights {
                 acc
             })
             .collect();
-        Lights { tris, pmf, cdf, light_of_tri, total_power: total * std::f32::consts::PI }
+        Lights {
+            tris,
+            pmf,
+            cdf,
+            light_of_tri,
+            total_power: total * std::f32::consts::PI,
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -69,7 +75,10 @@ impl Lights {
 
     /// Choose a light by power; returns its index and probability.
     pub fn choose(&self, u: f32) -> (usize, f32) {
-        let i = self.cdf.partition_point(|&c| c <= u).min(self.tris.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .min(self.tris.len() - 1);
         (i, self.pmf[i])
     }
 
@@ -83,12 +92,23 @@ impl Lights {
     }
 
     /// Sample a point on the lights; `emitter` describes the chosen triangle.
-    pub fn sample(&self, u_select: f32, u: Vec2, emitter: impl Fn(u32) -> EmitterTri) -> LightSample {
+    pub fn sample(
+        &self,
+        u_select: f32,
+        u: Vec2,
+        emitter: impl Fn(u32) -> EmitterTri,
+    ) -> LightSample {
         let (i, prob) = self.choose(u_select);
         let tri = self.tris[i];
         let e = emitter(tri);
         let (b1, b2) = uniform_triangle(u);
         let p = e.p[0] * (1.0 - b1 - b2) + e.p[1] * b1 + e.p[2] * b2;
-        LightSample { p, n: e.n, le: e.le, pdf_area: prob / e.area, tri }
+        LightSample {
+            p,
+            n: e.n,
+            le: e.le,
+            pdf_area: prob / e.area,
+            tri,
+        }
     }
 }

@@ -61,5 +61,10 @@ pub fn run_passes(
         });
     }
     progress.finish();
-    Rendered { film, passes: done, seconds: start.elapsed().as_secs_f64(), partial }
+    Rendered {
+        film,
+        passes: done,
+        seconds: start.elapsed().as_secs_f64(),
+        partial,
+    }
 }

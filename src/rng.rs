@@ -49,7 +49,10 @@ impl Rng {
 
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
-        let v = mix64(self.key.wrapping_add(self.dim.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+        let v = mix64(
+            self.key
+                .wrapping_add(self.dim.wrapping_mul(0x9e37_79b9_7f4a_7c15)),
+        );
         self.dim += 1;
         v
     }

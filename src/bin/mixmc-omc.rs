@@ -11,7 +11,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "mixmc-omc", version, about = "Render a scene with an ordinary Monte Carlo method into an AOV EXR")]
+#[command(
+    name = "mixmc-omc",
+    version,
+    about = "Render a scene with an ordinary Monte Carlo method into an AOV EXR"
+)]
 struct Args {
     /// Scene file (JSON, DESIGN §4).
     scene: PathBuf,
@@ -41,13 +45,21 @@ fn main() -> ExitCode {
             quiet: args.render.quiet,
         };
         if scene.lights.is_empty() {
-            eprintln!("mixmc-omc: {}: warning: the scene has no lights; the image is black", args.scene.display());
+            eprintln!(
+                "mixmc-omc: {}: warning: the scene has no lights; the image is black",
+                args.scene.display()
+            );
         }
         mixmc::signal::install();
         let img = render(&scene, &settings);
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
-            write_png(png, img.width, img.height, &img.require_rgb(["R", "G", "B"])?)?;
+            write_png(
+                png,
+                img.width,
+                img.height,
+                &img.require_rgb(["R", "G", "B"])?,
+            )?;
         }
         let partial = img.text_attr("mixmc.partial").as_deref() == Some("true");
         let spp = img.float_attr("mixmc.spp").unwrap_or(0.0);
@@ -56,8 +68,16 @@ fn main() -> ExitCode {
             "{}: {} spp in {secs:.2} s{}",
             args.output.display(),
             spp,
-            if partial { " (interrupted: partial image)" } else { "" }
+            if partial {
+                " (interrupted: partial image)"
+            } else {
+                ""
+            }
         );
-        Ok(if partial { ExitCode::from(130) } else { ExitCode::SUCCESS })
+        Ok(if partial {
+            ExitCode::from(130)
+        } else {
+            ExitCode::SUCCESS
+        })
     })
 }

@@ -8,7 +8,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "mixmc-scene", version, about = "Inspect and export mixmc scenes")]
+#[command(
+    name = "mixmc-scene",
+    version,
+    about = "Inspect and export mixmc scenes"
+)]
 struct Args {
     #[command(subcommand)]
     command: Command,
@@ -36,12 +40,27 @@ fn main() -> ExitCode {
                 println!("film       {}x{}", s.width(), s.height());
                 println!("max_depth  {}", s.max_depth);
                 println!("triangles  {}", s.tri_verts.len());
-                println!("bounds     {:?} .. {:?}", s.bounds.0.to_array(), s.bounds.1.to_array());
-                println!("lights     {} emitting triangles, total power {:.4} W (luminance)", s.lights.tris.len(), s.lights.total_power);
+                println!(
+                    "bounds     {:?} .. {:?}",
+                    s.bounds.0.to_array(),
+                    s.bounds.1.to_array()
+                );
+                println!(
+                    "lights     {} emitting triangles, total power {:.4} W (luminance)",
+                    s.lights.tris.len(),
+                    s.lights.total_power
+                );
                 for (i, m) in s.materials.iter().enumerate() {
                     let n = s.tri_info.iter().filter(|t| t.material == i as u32).count();
-                    let e = if m.emission.max_element() > 0.0 { format!(", emits Y={:.3}", luminance(m.emission)) } else { String::new() };
-                    println!("material   {i:3} {:<16} {:?} ({n} triangles{e})", m.name, m.bsdf);
+                    let e = if m.emission.max_element() > 0.0 {
+                        format!(", emits Y={:.3}", luminance(m.emission))
+                    } else {
+                        String::new()
+                    };
+                    println!(
+                        "material   {i:3} {:<16} {:?} ({n} triangles{e})",
+                        m.name, m.bsdf
+                    );
                 }
             }
             Command::Export { scene, mitsuba } => {

@@ -33,7 +33,13 @@ impl Method {
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
-    if a2.is_infinite() { 1.0 } else if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+    if a2.is_infinite() {
+        1.0
+    } else if a2 + b2 > 0.0 {
+        a2 / (a2 + b2)
+    } else {
+        0.0
+    }
 }
 
 /// Russian roulette starts after this many scattering vertices (Mitsuba's `rr_depth`).

@@ -10,26 +10,42 @@ use rayon::prelude::*;
 
 pub fn render_pass(scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {
     let w = film.width;
-    film.direct.par_chunks_mut(w).zip(film.indirect.par_chunks_mut(w)).enumerate().for_each(|(y, (drow, irow))| {
-        for x in 0..w {
-            let pixel = y * w + x;
-            let mut rng = Rng::new(seed, pixel as u64, pass);
-            let (d, i) = sample_pixel(scene, x, y, max_depth, &mut rng);
-            drow[x] += d;
-            irow[x] += i;
-        }
-    });
+    film.direct
+        .par_chunks_mut(w)
+        .zip(film.indirect.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (drow, irow))| {
+            for x in 0..w {
+                let pixel = y * w + x;
+                let mut rng = Rng::new(seed, pixel as u64, pass);
+                let (d, i) = sample_pixel(scene, x, y, max_depth, &mut rng);
+                drow[x] += d;
+                irow[x] += i;
+            }
+        });
 }
 
 /// One path through pixel (x, y): returns its (direct, indirect) radiance.
-pub fn sample_pixel(scene: &Scene, x: usize, y: usize, max_depth: u32, rng: &mut impl Sampler) -> (Rgb, Rgb) {
+pub fn sample_pixel(
+    scene: &Scene,
+    x: usize,
+    y: usize,
+    max_depth: u32,
+    rng: &mut impl Sampler,
+) -> (Rgb, Rgb) {
     let u = rng.next_2d();
     let dir = scene.camera.ray_dir(x as f32 + u.x, y as f32 + u.y);
     radiance(scene, scene.camera.position, dir, max_depth, rng)
 }
 
 /// Radiance arriving at `origin` from `dir`, split into depth ≤ 1 and depth ≥ 2.
-pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mut impl Sampler) -> (Rgb, Rgb) {
+pub fn radiance(
+    scene: &Scene,
+    origin: Vec3,
+    dir: Vec3,
+    max_depth: u32,
+    rng: &mut impl Sampler,
+) -> (Rgb, Rgb) {
     let mut out = [Rgb::ZERO; 2];
     let mut add = |depth: u32, v: Rgb| out[(depth >= 2) as usize] += v;
     let (mut o, mut d) = (origin, dir);
@@ -69,12 +85,17 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, max_depth: u32, rng: &mu
                 if f != Rgb::ZERO && scene.visible(hit.p, hit.n, ls.p, ls.n) {
                     let light_pdf = ls.pdf_area * dist2 / cos_l;
                     let w = power_heuristic(light_pdf, bsdf.pdf(hit.n, wo, wi));
-                    add(depth, beta * f * ls.le * (wi.dot(hit.n).abs() * w / light_pdf));
+                    add(
+                        depth,
+                        beta * f * ls.le * (wi.dot(hit.n).abs() * w / light_pdf),
+                    );
                 }
             }
         }
         let (u, uc) = (rng.next_2d(), rng.next_1d());
-        let Some(s) = bsdf.sample(hit.n, wo, u, uc, Mode::Radiance) else { break };
+        let Some(s) = bsdf.sample(hit.n, wo, u, uc, Mode::Radiance) else {
+            break;
+        };
         beta *= s.weight(hit.n);
         if beta == Rgb::ZERO || !beta.is_finite() {
             break;

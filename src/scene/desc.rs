@@ -229,12 +229,22 @@ fn opt_finite3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<V3>, D::Error> 
 
 fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     let v = f32::deserialize(d)?;
-    if v.is_finite() && v > 0.0 { Ok(v) } else { Err(D::Error::custom(format!("{v} must be a positive number"))) }
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("{v} must be a positive number")))
+    }
 }
 
 fn fov<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     let v = f32::deserialize(d)?;
-    if v > 0.0 && v < 180.0 { Ok(v) } else { Err(D::Error::custom(format!("field of view {v} must be in (0, 180) degrees"))) }
+    if v > 0.0 && v < 180.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "field of view {v} must be in (0, 180) degrees"
+        )))
+    }
 }
 
 fn roughness<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
@@ -242,7 +252,9 @@ fn roughness<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     if (0.001..=1.0).contains(&v) {
         Ok(v)
     } else {
-        Err(D::Error::custom(format!("roughness {v} must be in [0.001, 1] (use a mirror for 0)")))
+        Err(D::Error::custom(format!(
+            "roughness {v} must be in [0.001, 1] (use a mirror for 0)"
+        )))
     }
 }
 
@@ -254,6 +266,8 @@ fn resolution<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     if (1..=MAX_RESOLUTION).contains(&v) {
         Ok(v)
     } else {
-        Err(D::Error::custom(format!("resolution {v} must be between 1 and {MAX_RESOLUTION}")))
+        Err(D::Error::custom(format!(
+            "resolution {v} must be between 1 and {MAX_RESOLUTION}"
+        )))
     }
 }

@@ -17,7 +17,10 @@ fn rgb(name: &str, c: Rgb) -> String {
 fn bsdf_xml(b: &Bsdf) -> String {
     match *b {
         Bsdf::Diffuse { albedo } => {
-            format!("<bsdf type=\"twosided\"><bsdf type=\"diffuse\">{}</bsdf></bsdf>", rgb("reflectance", albedo))
+            format!(
+                "<bsdf type=\"twosided\"><bsdf type=\"diffuse\">{}</bsdf></bsdf>",
+                rgb("reflectance", albedo)
+            )
         }
         Bsdf::Mirror { reflectance } => format!(
             "<bsdf type=\"twosided\"><bsdf type=\"conductor\"><string name=\"material\" value=\"none\"/>{}</bsdf></bsdf>",
@@ -45,11 +48,13 @@ fn ply(positions: &[[f32; 3]], tris: &[[u32; 3]]) -> Vec<u8> {
     )
     .into_bytes();
     for p in positions {
-        p.iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes()));
+        p.iter()
+            .for_each(|c| out.extend_from_slice(&c.to_le_bytes()));
     }
     for t in tris {
         out.push(3);
-        t.iter().for_each(|i| out.extend_from_slice(&(*i as i32).to_le_bytes()));
+        t.iter()
+            .for_each(|i| out.extend_from_slice(&(*i as i32).to_le_bytes()));
     }
     out
 }
@@ -58,7 +63,8 @@ fn ply(positions: &[[f32; 3]], tris: &[[u32; 3]]) -> Vec<u8> {
 /// `max_depth` + 1 (Mitsuba counts the camera vertex too).
 pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
     let mesh_dir = dir.join("meshes");
-    std::fs::create_dir_all(&mesh_dir).map_err(|e| Error::in_file(&mesh_dir, format!("cannot create: {e}")))?;
+    std::fs::create_dir_all(&mesh_dir)
+        .map_err(|e| Error::in_file(&mesh_dir, format!("cannot create: {e}")))?;
     let c = &scene.camera;
     let target = c.position + c.forward;
     let mut xml = String::from("<scene version=\"3.0.0\">\n");
@@ -75,12 +81,26 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
          <sampler type=\"independent\"><integer name=\"sample_count\" value=\"64\"/></sampler>\n    \
          <film type=\"hdrfilm\"><integer name=\"width\" value=\"{}\"/><integer name=\"height\" value=\"{}\"/>\
          <rfilter type=\"box\"/><string name=\"pixel_format\" value=\"rgb\"/></film>\n  </sensor>",
-        c.position.x, c.position.y, c.position.z, target.x, target.y, target.z, c.up.x, c.up.y, c.up.z, c.width, c.height
+        c.position.x,
+        c.position.y,
+        c.position.z,
+        target.x,
+        target.y,
+        target.z,
+        c.up.x,
+        c.up.y,
+        c.up.z,
+        c.width,
+        c.height
     );
     for (i, m) in scene.materials.iter().enumerate() {
         let _ = writeln!(xml, "  <!-- {} -->", m.name.replace("--", "- -"));
         let b = bsdf_xml(&m.bsdf);
-        let _ = writeln!(xml, "  {}", b.replacen("<bsdf ", &format!("<bsdf id=\"mat{i}\" "), 1));
+        let _ = writeln!(
+            xml,
+            "  {}",
+            b.replacen("<bsdf ", &format!("<bsdf id=\"mat{i}\" "), 1)
+        );
     }
     for (i, mesh) in scene.meshes.iter().enumerate() {
         let name = format!("{i}.ply");
@@ -88,7 +108,10 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
         write_bytes(&mesh_dir.join(&name), &ply(&positions, &mesh.indices))?;
         let mat = &scene.materials[mesh.material as usize];
         let emitter = if mat.emission.max_element() > 0.0 {
-            format!("<emitter type=\"area\">{}</emitter>", rgb("radiance", mat.emission))
+            format!(
+                "<emitter type=\"area\">{}</emitter>",
+                rgb("radiance", mat.emission)
+            )
         } else {
             String::new()
         };

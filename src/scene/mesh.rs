@@ -104,7 +104,11 @@ impl Mesh {
             }
             f = next;
         }
-        Mesh { positions: p.into_iter().map(|q| center + q * radius).collect(), indices: f, material: 0 }
+        Mesh {
+            positions: p.into_iter().map(|q| center + q * radius).collect(),
+            indices: f,
+            material: 0,
+        }
     }
 
     /// A torus around the y axis through `center`.
@@ -117,7 +121,8 @@ impl Mesh {
                 let theta = j as f32 / nv as f32 * std::f32::consts::TAU;
                 let (st, ct) = theta.sin_cos();
                 let r = major + minor * ct;
-                m.positions.push(center + Vec3::new(r * cp, minor * st, r * sp));
+                m.positions
+                    .push(center + Vec3::new(r * cp, minor * st, r * sp));
             }
         }
         let idx = |i: u32, j: u32| (i % nu) * nv + (j % nv);
@@ -135,7 +140,8 @@ impl Mesh {
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;
         self.positions.extend_from_slice(&other.positions);
-        self.indices.extend(other.indices.iter().map(|t| t.map(|i| i + base)));
+        self.indices
+            .extend(other.indices.iter().map(|t| t.map(|i| i + base)));
     }
 
     /// Apply `p ↦ rotation·(scale ⊙ p) + translation`, keeping normals outward when the scale
@@ -174,7 +180,10 @@ mod tests {
             for i in 0..m.indices.len() {
                 let t = m.triangle(i);
                 let centroid = (t[0] + t[1] + t[2]) / 3.0;
-                assert!(normal(t).dot(centroid - c) > 0.0, "triangle {i} faces inward");
+                assert!(
+                    normal(t).dot(centroid - c) > 0.0,
+                    "triangle {i} faces inward"
+                );
             }
         }
         let t = Mesh::torus(c, 2.0, 0.5, 24, 12);
@@ -182,7 +191,10 @@ mod tests {
             let tri = t.triangle(i);
             let centroid = (tri[0] + tri[1] + tri[2]) / 3.0;
             let radial = Vec3::new(centroid.x - c.x, 0.0, centroid.z - c.z).normalize() * 2.0;
-            assert!(normal(tri).dot(centroid - (c + radial)) > 0.0, "torus triangle {i} faces inward");
+            assert!(
+                normal(tri).dot(centroid - (c + radial)) > 0.0,
+                "torus triangle {i} faces inward"
+            );
         }
     }
 
@@ -190,14 +202,21 @@ mod tests {
     fn quad_faces_u_cross_v() {
         let q = Mesh::quad(Vec3::ZERO, Vec3::X, Vec3::Z);
         for i in 0..2 {
-            assert!(normal(q.triangle(i)).normalize().dot(Vec3::X.cross(Vec3::Z)) > 0.99);
+            assert!(
+                normal(q.triangle(i))
+                    .normalize()
+                    .dot(Vec3::X.cross(Vec3::Z))
+                    > 0.99
+            );
         }
     }
 
     #[test]
     fn sphere_area_approaches_analytic() {
         let s = Mesh::sphere(Vec3::ZERO, 1.0, 4);
-        let area: f32 = (0..s.indices.len()).map(|i| normal(s.triangle(i)).length() * 0.5).sum();
+        let area: f32 = (0..s.indices.len())
+            .map(|i| normal(s.triangle(i)).length() * 0.5)
+            .sum();
         assert!((area / (4.0 * std::f32::consts::PI) - 1.0).abs() < 0.01);
     }
 }

@@ -67,21 +67,41 @@ pub const MAX_DEPTH_LIMIT: u32 = 1024;
 impl Scene {
     /// Load and build a scene file; errors name the file, line, column and key.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::in_file(path, format!("cannot read scene: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::in_file(path, format!("cannot read scene: {e}")))?;
         let desc = parse(&text).map_err(|e| e.with_file(path))?;
         Scene::build(&desc, path, &text).map_err(|e| e.with_file(path))
     }
 
     fn build(desc: &SceneDesc, path: &Path, text: &str) -> Result<Scene> {
         if desc.max_depth > MAX_DEPTH_LIMIT {
-            return Err(Error::new(format!("key max_depth: {} exceeds the limit {MAX_DEPTH_LIMIT}", desc.max_depth)));
+            return Err(Error::new(format!(
+                "key max_depth: {} exceeds the limit {MAX_DEPTH_LIMIT}",
+                desc.max_depth
+            )));
         }
         let names: Vec<&String> = desc.materials.keys().collect();
-        let materials: Vec<Material> = desc.materials.iter().map(|(name, m)| material(name, m)).collect();
+        let materials: Vec<Material> = desc
+            .materials
+            .iter()
+            .map(|(name, m)| material(name, m))
+            .collect();
         let c = &desc.camera;
-        let (pos, at, up) = (Vec3::from(c.position), Vec3::from(c.look_at), Vec3::from(c.up));
-        if (at - pos).length() == 0.0 || (at - pos).normalize().cross(up.normalize_or_zero()).length() < 1e-4 {
-            return Err(Error::new("key camera: look_at must differ from position and not be parallel to up"));
+        let (pos, at, up) = (
+            Vec3::from(c.position),
+            Vec3::from(c.look_at),
+            Vec3::from(c.up),
+        );
+        if (at - pos).length() == 0.0
+            || (at - pos)
+                .normalize()
+                .cross(up.normalize_or_zero())
+                .length()
+                < 1e-4
+        {
+            return Err(Error::new(
+                "key camera: look_at must differ from position and not be parallel to up",
+            ));
         }
         let camera = Camera::new(pos, at, up, c.fov_y, desc.film.width, desc.film.height);
         let base = path.parent().unwrap_or(Path::new("."));
@@ -96,14 +116,21 @@ impl Scene {
                     names.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
                 ))
             })?;
-            let mut m = generate(o, base).map_err(|e| Error { message: format!("key {key}: {}", e.message), ..e })?;
+            let mut m = generate(o, base).map_err(|e| Error::new(format!("key {key}: {e}")))?;
             if let Some(t) = o.transform() {
                 apply_transform(&mut m, t);
             }
             m.material = mat as u32;
             meshes.push(m);
         }
-        Ok(Scene::from_meshes(desc_name(path), path.to_path_buf(), camera, desc.max_depth, materials, meshes))
+        Ok(Scene::from_meshes(
+            desc_name(path),
+            path.to_path_buf(),
+            camera,
+            desc.max_depth,
+            materials,
+            meshes,
+        ))
     }
 
     /// Assemble a scene from finished meshes (used by the loader and by tests that build scenes
@@ -132,7 +159,11 @@ impl Scene {
                     hi = hi.max(p);
                 }
                 tri_verts.push(t);
-                tri_info.push(TriInfo { n: c / len, area: 0.5 * len, material: m.material });
+                tri_info.push(TriInfo {
+                    n: c / len,
+                    area: 0.5 * len,
+                    material: m.material,
+                });
             }
         }
         let lights = Lights::new(tri_info.len(), |i| {
@@ -140,7 +171,11 @@ impl Scene {
             (e.max_element() > 0.0).then_some((tri_info[i].area, e))
         });
         let bvh = Bvh::new(&tri_verts);
-        let extent = if tri_verts.is_empty() { 1.0 } else { lo.abs().max(hi.abs()).max_element().max(1e-3) };
+        let extent = if tri_verts.is_empty() {
+            1.0
+        } else {
+            lo.abs().max(hi.abs()).max_element().max(1e-3)
+        };
         Scene {
             name,
             path,
@@ -164,13 +199,23 @@ impl Scene {
         let info = &self.tri_info[hit.prim as usize];
         let v = &self.tri_verts[hit.prim as usize];
         let p = v[0] * (1.0 - hit.b1 - hit.b2) + v[1] * hit.b1 + v[2] * hit.b2;
-        Some(SurfaceHit { p, n: info.n, t: hit.t, tri: hit.prim, material: info.material })
+        Some(SurfaceHit {
+            p,
+            n: info.n,
+            t: hit.t,
+            tri: hit.prim,
+            material: info.material,
+        })
     }
 
     /// A ray origin lifted off the surface (p, n) to the side `dir` leaves on.
     #[inline]
     pub fn offset(&self, p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
-        if dir.dot(n) >= 0.0 { p + n * self.eps } else { p - n * self.eps }
+        if dir.dot(n) >= 0.0 {
+            p + n * self.eps
+        } else {
+            p - n * self.eps
+        }
     }
 
     /// Whether the segment between two surface points is unobstructed.
@@ -179,7 +224,13 @@ impl Scene {
         let oa = self.offset(a, na, d);
         let ob = self.offset(b, nb, -d);
         let seg = ob - oa;
-        !self.bvh.occluded(&Ray { origin: oa, dir: seg }, 1.0)
+        !self.bvh.occluded(
+            &Ray {
+                origin: oa,
+                dir: seg,
+            },
+            1.0,
+        )
     }
 
     pub fn material_of(&self, tri: u32) -> &Material {
@@ -190,7 +241,11 @@ impl Scene {
     #[inline]
     pub fn le(&self, tri: u32, w: Vec3) -> Rgb {
         let info = &self.tri_info[tri as usize];
-        if w.dot(info.n) > 0.0 { self.materials[info.material as usize].emission } else { Rgb::ZERO }
+        if w.dot(info.n) > 0.0 {
+            self.materials[info.material as usize].emission
+        } else {
+            Rgb::ZERO
+        }
     }
 
     pub fn sample_light(&self, u_select: f32, u: Vec2) -> LightSample {
@@ -229,15 +284,25 @@ pub fn parse(text: &str) -> Result<SceneDesc> {
         let msg = inner.to_string();
         // serde_json appends " at line L column C"; we put the position first instead.
         let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
-        let key = if path == "." { String::new() } else { format!("key {path}: ") };
-        Error::new(format!("line {}, column {}: {key}{msg}", inner.line(), inner.column()))
+        let key = if path == "." {
+            String::new()
+        } else {
+            format!("key {path}: ")
+        };
+        Error::new(format!(
+            "line {}, column {}: {key}{msg}",
+            inner.line(),
+            inner.column()
+        ))
     })
 }
 
 /// Line and column (1-based) of the first `"value"` string in the text.
 fn locate_value(text: &str, value: &str) -> (usize, usize) {
     let needle = format!("\"{value}\"");
-    let Some(at) = text.find(&needle) else { return (0, 0) };
+    let Some(at) = text.find(&needle) else {
+        return (0, 0);
+    };
     let before = &text[..at];
     let line = before.matches('\n').count() + 1;
     let col = at - before.rfind('\n').map_or(0, |i| i + 1) + 1;
@@ -245,28 +310,46 @@ fn locate_value(text: &str, value: &str) -> (usize, usize) {
 }
 
 fn desc_name(path: &Path) -> String {
-    path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 fn material(name: &str, m: &MaterialDesc) -> Material {
     let v = |a: [f32; 3]| Vec3::from(a);
     let bsdf = match m {
         MaterialDesc::Diffuse { albedo, .. } => Bsdf::Diffuse { albedo: v(*albedo) },
-        MaterialDesc::Mirror { reflectance, .. } => Bsdf::Mirror { reflectance: v(*reflectance) },
-        MaterialDesc::Glass { ior, transmittance, .. } => {
-            Bsdf::Glass { eta: *ior, transmittance: transmittance.map_or(Rgb::ONE, v) }
-        }
-        MaterialDesc::Glossy { reflectance, roughness, .. } => {
-            Bsdf::Glossy { reflectance: v(*reflectance), alpha: *roughness }
-        }
+        MaterialDesc::Mirror { reflectance, .. } => Bsdf::Mirror {
+            reflectance: v(*reflectance),
+        },
+        MaterialDesc::Glass {
+            ior, transmittance, ..
+        } => Bsdf::Glass {
+            eta: *ior,
+            transmittance: transmittance.map_or(Rgb::ONE, v),
+        },
+        MaterialDesc::Glossy {
+            reflectance,
+            roughness,
+            ..
+        } => Bsdf::Glossy {
+            reflectance: v(*reflectance),
+            alpha: *roughness,
+        },
     };
-    Material { name: name.to_string(), bsdf, emission: m.emission().map_or(Rgb::ZERO, v) }
+    Material {
+        name: name.to_string(),
+        bsdf,
+        emission: m.emission().map_or(Rgb::ZERO, v),
+    }
 }
 
 fn generate(o: &ObjectDesc, base: &Path) -> Result<Mesh> {
     let v = |a: &[f32; 3]| Vec3::from(*a);
     Ok(match o {
-        ObjectDesc::Quad { origin, u, v: vv, .. } => {
+        ObjectDesc::Quad {
+            origin, u, v: vv, ..
+        } => {
             if v(u).cross(v(vv)).length() == 0.0 {
                 return Err(Error::new("quad: u and v must not be parallel"));
             }
@@ -278,17 +361,37 @@ fn generate(o: &ObjectDesc, base: &Path) -> Result<Mesh> {
             }
             Mesh::cuboid(v(center), v(size))
         }
-        ObjectDesc::Sphere { center, radius, subdivisions, .. } => {
+        ObjectDesc::Sphere {
+            center,
+            radius,
+            subdivisions,
+            ..
+        } => {
             if *subdivisions > 8 {
-                return Err(Error::new(format!("sphere: subdivisions {subdivisions} exceeds 8")));
+                return Err(Error::new(format!(
+                    "sphere: subdivisions {subdivisions} exceeds 8"
+                )));
             }
             Mesh::sphere(v(center), *radius, *subdivisions)
         }
-        ObjectDesc::Torus { center, major_radius, minor_radius, major_segments, minor_segments, .. } => {
+        ObjectDesc::Torus {
+            center,
+            major_radius,
+            minor_radius,
+            major_segments,
+            minor_segments,
+            ..
+        } => {
             if !(3..=4096).contains(major_segments) || !(3..=4096).contains(minor_segments) {
                 return Err(Error::new("torus: segments must be between 3 and 4096"));
             }
-            Mesh::torus(v(center), *major_radius, *minor_radius, *major_segments, *minor_segments)
+            Mesh::torus(
+                v(center),
+                *major_radius,
+                *minor_radius,
+                *major_segments,
+                *minor_segments,
+            )
         }
         ObjectDesc::Obj { path, .. } => obj::load(&base.join(path))?,
     })
@@ -300,10 +403,12 @@ fn apply_transform(m: &mut Mesh, t: &TransformDesc) {
         Some(desc::Scale::Axes(a)) => Vec3::from(a),
         None => Vec3::ONE,
     };
-    let rotation = t
-        .rotate
-        .as_ref()
-        .map_or(Quat::IDENTITY, |r| Quat::from_axis_angle(Vec3::from(r.axis).normalize_or(Vec3::Y), r.degrees.to_radians()));
+    let rotation = t.rotate.as_ref().map_or(Quat::IDENTITY, |r| {
+        Quat::from_axis_angle(
+            Vec3::from(r.axis).normalize_or(Vec3::Y),
+            r.degrees.to_radians(),
+        )
+    });
     m.transform(scale, rotation, t.translate.map_or(Vec3::ZERO, Vec3::from));
 }
 
@@ -330,13 +435,24 @@ mod tests {
     fn errors_name_line_column_and_key() {
         let bad = MINIMAL.replace("\"width\": 8", "\"width\": 0");
         let e = parse(&bad).unwrap_err();
-        assert!(e.message.contains("line 3") && e.message.contains("film.width"), "{e}");
+        assert!(
+            e.message.contains("line 3") && e.message.contains("film.width"),
+            "{e}"
+        );
         let bad = MINIMAL.replace("\"radius\": 1, ", "");
         let e = parse(&bad).unwrap_err();
-        assert!(e.message.contains("radius") && e.message.contains("objects[0]"), "{e}");
+        assert!(
+            e.message.contains("radius") && e.message.contains("objects[0]"),
+            "{e}"
+        );
         let bad = MINIMAL.replace("\"material\": \"white\"", "\"material\": \"black\"");
-        let Err(e) = Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad) else { panic!("accepted") };
-        assert!(e.message.contains("line 5") && e.message.contains("unknown material \"black\""), "{e}");
+        let Err(e) = Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad) else {
+            panic!("accepted")
+        };
+        assert!(
+            e.message.contains("line 5") && e.message.contains("unknown material \"black\""),
+            "{e}"
+        );
         let bad = MINIMAL.replace("\"albedo\"", "\"albdo\"");
         assert!(parse(&bad).unwrap_err().message.contains("albdo"));
         let bad = MINIMAL.replace("[0, 0, -3]", "[0, 1e39, -3]");

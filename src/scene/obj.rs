@@ -8,7 +8,8 @@ use crate::math::Vec3;
 use std::path::Path;
 
 pub fn load(path: &Path) -> Result<Mesh> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::in_file(path, format!("cannot read OBJ: {e}")))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::in_file(path, format!("cannot read OBJ: {e}")))?;
     parse(&text).map_err(|e| e.with_file(path))
 }
 
@@ -21,7 +22,9 @@ pub fn parse(text: &str) -> Result<Mesh> {
             Some("v") => {
                 let mut p = [0.0f32; 3];
                 for c in &mut p {
-                    let s = it.next().ok_or_else(|| at("vertex needs three coordinates".into()))?;
+                    let s = it
+                        .next()
+                        .ok_or_else(|| at("vertex needs three coordinates".into()))?;
                     *c = s.parse().map_err(|_| at(format!("bad coordinate `{s}`")))?;
                     if !c.is_finite() {
                         return Err(at(format!("coordinate `{s}` is not finite")));
@@ -34,11 +37,15 @@ pub fn parse(text: &str) -> Result<Mesh> {
                 let mut face = Vec::new();
                 for tok in it {
                     let s = tok.split('/').next().unwrap_or("");
-                    let i: i64 = s.parse().map_err(|_| at(format!("bad face index `{tok}`")))?;
+                    let i: i64 = s
+                        .parse()
+                        .map_err(|_| at(format!("bad face index `{tok}`")))?;
                     // OBJ indices are 1-based; negative ones count back from the latest vertex.
                     let k = if i > 0 { i - 1 } else { n + i };
                     if i == 0 || k < 0 || k >= n {
-                        return Err(at(format!("face index {i} out of range ({n} vertices so far)")));
+                        return Err(at(format!(
+                            "face index {i} out of range ({n} vertices so far)"
+                        )));
                     }
                     face.push(k as u32);
                 }
@@ -64,14 +71,19 @@ mod tests {
 
     #[test]
     fn parses_quads_and_negative_indices() {
-        let m = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1/1/1 2/2/2 3/3/3 4/4/4\nf -4 -3 -2\n").unwrap();
+        let m =
+            parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1/1/1 2/2/2 3/3/3 4/4/4\nf -4 -3 -2\n")
+                .unwrap();
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3], [0, 1, 2]]);
     }
 
     #[test]
     fn rejects_bad_index_with_line() {
         let e = parse("v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap_err();
-        assert!(e.message.contains("line 3") && e.message.contains("out of range"), "{e}");
+        assert!(
+            e.message.contains("line 3") && e.message.contains("out of range"),
+            "{e}"
+        );
         assert!(parse("v 0 0 nan\n").is_err());
         assert!(parse("v 0 0 0\n").is_err());
     }

@@ -1,22 +1,33 @@
 //! Ordinary Monte Carlo integrators. Each renders in passes: a pass adds one sample per pixel
 //! (gathering methods) or one light path per pixel (splatting methods) to a [`Film`].
 
+pub mod bidir;
 pub mod pt;
 
 use crate::film::Film;
 use crate::scene::Scene;
+use bidir::Strategies;
 
 /// The OMC methods of `mixmc-omc --method`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {
     /// Path tracing with next-event estimation and MIS.
     Pt,
+    /// Light tracing, splatting to the camera (camera paths only behind specular first hits).
+    Lt,
+    /// The paper's instant BPT: emitter hits, next-event estimation and light tracing.
+    Ibpt,
+    /// Full bidirectional path tracing, all (s, t), balance heuristic.
+    Bpt,
 }
 
 impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::Pt => "pt",
+            Method::Lt => "lt",
+            Method::Ibpt => "ibpt",
+            Method::Bpt => "bpt",
         }
     }
 
@@ -25,6 +36,11 @@ impl Method {
     pub fn render_pass(self, scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {
         match self {
             Method::Pt => pt::render_pass(scene, max_depth, seed, pass, film),
+            Method::Lt => bidir::render_pass(scene, Strategies::Lt, max_depth, seed, pass, film),
+            Method::Ibpt => {
+                bidir::render_pass(scene, Strategies::Ibpt, max_depth, seed, pass, film)
+            }
+            Method::Bpt => bidir::render_pass(scene, Strategies::Bpt, max_depth, seed, pass, film),
         }
     }
 }

@@ -1,0 +1,234 @@
+//! Evaluating one (s, t) strategy: join the first s vertices of a light sub-path with the first t
+//! of a camera sub-path, and weight the result by the balance heuristic over the strategies of
+//! the method in use. MMLT calls this with a single strategy per sample.
+
+use super::Strategies;
+use super::path::{Kind, Vertex, emission_pdf};
+use crate::math::{Rgb, Vec3};
+use crate::rng::Sampler;
+use crate::scene::Scene;
+
+/// The unweighted value of strategy (s, t) and, for t = 1, where on the film it lands.
+pub struct Connection {
+    pub value: Rgb,
+    pub raster: Option<(f32, f32)>,
+}
+
+/// Paths up to this many vertices keep their MIS densities on the stack; longer ones (rare:
+/// max_depth above 30) use the heap.
+const STACK_VERTICES: usize = 32;
+
+/// Strategy (s, t), MIS-weighted over `strategies`. For s = 1 the light point is sampled afresh
+/// from `sampler` (next-event estimation) instead of taking the light sub-path's first vertex.
+pub fn connect(
+    scene: &Scene,
+    light: &[Vertex],
+    cam: &[Vertex],
+    s: usize,
+    t: usize,
+    sampler: &mut impl Sampler,
+    strategies: Strategies,
+) -> Option<Connection> {
+    debug_assert!(t >= 1 && t <= cam.len() && s <= light.len() && s + t >= 2);
+    let mut sampled: Option<Vertex> = None;
+    let mut raster = None;
+    let value = if s == 0 {
+        let pt = &cam[t - 1];
+        if pt.kind != Kind::Surface {
+            return None;
+        }
+        pt.beta * scene.le(pt.tri, pt.wo)
+    } else if t == 1 {
+        let qs = &light[s - 1];
+        if qs.delta {
+            return None;
+        }
+        let cam_p = scene.camera.position;
+        let to_cam = cam_p - qs.p;
+        let dist2 = to_cam.length_squared();
+        let w = to_cam / dist2.sqrt();
+        raster = Some(scene.camera.raster(-w)?);
+        let f = if s == 1 {
+            Rgb::splat((emission_pdf(qs.n, w) > 0.0) as u8 as f32)
+        } else {
+            eval_bsdf(scene, qs, w)
+        };
+        let cos_cam = (-w).dot(scene.camera.forward);
+        let v =
+            qs.beta * f * (w.dot(qs.n).abs() * scene.camera.importance(cos_cam) * cos_cam / dist2);
+        if v == Rgb::ZERO || !visible_from_camera(scene, qs) {
+            return None;
+        }
+        v
+    } else if s == 1 {
+        let pt = &cam[t - 1];
+        if pt.delta || pt.kind != Kind::Surface || scene.lights.is_empty() {
+            return None;
+        }
+        let (u_sel, u) = (sampler.next_1d(), sampler.next_2d());
+        let ls = scene.sample_light(u_sel, u);
+        let l0 = Vertex {
+            kind: Kind::Light,
+            p: ls.p,
+            n: ls.n,
+            wo: Vec3::ZERO,
+            tri: ls.tri,
+            material: scene.tri_info[ls.tri as usize].material,
+            beta: ls.le / ls.pdf_area,
+            delta: false,
+            pdf_fwd: ls.pdf_area,
+            pdf_rev: 0.0,
+        };
+        let d = l0.p - pt.p;
+        let dist2 = d.length_squared();
+        let w = d / dist2.sqrt();
+        if emission_pdf(l0.n, -w) <= 0.0 {
+            return None;
+        }
+        let g = w.dot(pt.n).abs() * w.dot(l0.n).abs() / dist2;
+        let v = pt.beta * eval_bsdf(scene, pt, w) * l0.beta * g;
+        if v == Rgb::ZERO || !scene.visible(pt.p, pt.n, l0.p, l0.n) {
+            return None;
+        }
+        sampled = Some(l0);
+        v
+    } else {
+        let (qs, pt) = (&light[s - 1], &cam[t - 1]);
+        if qs.delta || pt.delta || pt.kind != Kind::Surface {
+            return None;
+        }
+        let d = qs.p - pt.p;
+        let dist2 = d.length_squared();
+        let w = d / dist2.sqrt();
+        let g = w.dot(pt.n).abs() * w.dot(qs.n).abs() / dist2;
+        let v = qs.beta * eval_bsdf(scene, qs, -w) * g * eval_bsdf(scene, pt, w) * pt.beta;
+        if v == Rgb::ZERO || !scene.visible(pt.p, pt.n, qs.p, qs.n) {
+            return None;
+        }
+        v
+    };
+    if value == Rgb::ZERO || !value.is_finite() {
+        return None;
+    }
+    let weight = mis_weight(scene, light, cam, s, t, sampled.as_ref(), strategies);
+    Some(Connection {
+        value: value * weight,
+        raster,
+    })
+}
+
+/// f at a surface vertex towards `w`, having arrived along its sub-path.
+fn eval_bsdf(scene: &Scene, v: &Vertex, w: Vec3) -> Rgb {
+    scene.materials[v.material as usize].bsdf.eval(v.n, v.wo, w)
+}
+
+fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
+    let o = scene.camera.position;
+    let target = scene.offset(v.p, v.n, o - v.p);
+    !scene.bvh.occluded(
+        &crate::accel::Ray {
+            origin: o,
+            dir: target - o,
+        },
+        1.0,
+    )
+}
+
+#[inline]
+fn remap0(x: f32) -> f32 {
+    if x != 0.0 { x } else { 1.0 }
+}
+
+/// Balance-heuristic weight of strategy (s, t) among the strategies of `strategies` that could
+/// have made the same path. The path is laid out camera first: x[i] for i < t from `cam`, then
+/// the light sub-path reversed. pf[i] is x[i]'s area density from the camera side, pl[i] from
+/// the light side; moving the connection one vertex multiplies the path density by pf/pl.
+pub fn mis_weight(
+    scene: &Scene,
+    light: &[Vertex],
+    cam: &[Vertex],
+    s: usize,
+    t: usize,
+    sampled: Option<&Vertex>,
+    strategies: Strategies,
+) -> f32 {
+    let n = s + t;
+    let vert = |i: usize| -> &Vertex {
+        if i < t {
+            &cam[i]
+        } else {
+            let k = n - 1 - i;
+            match (k, sampled) {
+                (0, Some(v)) => v,
+                _ => &light[k],
+            }
+        }
+    };
+    let (mut pf_s, mut pl_s, mut delta_s) = (
+        [0.0f32; STACK_VERTICES],
+        [0.0f32; STACK_VERTICES],
+        [false; STACK_VERTICES],
+    );
+    let (mut pf_h, mut pl_h, mut delta_h);
+    let (pf, pl, delta): (&mut [f32], &mut [f32], &mut [bool]) = if n <= STACK_VERTICES {
+        (&mut pf_s, &mut pl_s, &mut delta_s)
+    } else {
+        (pf_h, pl_h, delta_h) = (vec![0.0f32; n], vec![0.0f32; n], vec![false; n]);
+        (&mut pf_h, &mut pl_h, &mut delta_h)
+    };
+    for i in 0..n {
+        let v = vert(i);
+        if i < t {
+            pf[i] = v.pdf_fwd;
+            pl[i] = v.pdf_rev;
+        } else {
+            pf[i] = v.pdf_rev;
+            pl[i] = v.pdf_fwd;
+        }
+        delta[i] = v.delta;
+    }
+    // The last vertex lies on a light: what matters there is the (non-delta) area emission.
+    delta[n - 1] = false;
+    let pt = vert(t - 1);
+    if s == 0 {
+        pl[t - 1] = scene.light_pdf_area(pt.tri);
+        if t >= 2 {
+            let prev = vert(t - 2);
+            pl[t - 2] = pt.to_area(emission_pdf(pt.n, (prev.p - pt.p).normalize()), prev);
+        }
+    } else {
+        let qs = vert(t);
+        let pt_prev = (t >= 2).then(|| vert(t - 2));
+        let qs_prev = (s >= 2).then(|| vert(t + 1));
+        pf[t] = pt.to_area(pt.pdf_dir(scene, pt_prev, qs), qs);
+        pl[t - 1] = qs.to_area(qs.pdf_dir(scene, qs_prev, pt), pt);
+        if let Some(pp) = pt_prev {
+            pl[t - 2] = pt.to_area(pt.pdf_dir(scene, Some(qs), pp), pp);
+        }
+        if let Some(qp) = qs_prev {
+            pf[t + 1] = qs.to_area(qs.pdf_dir(scene, Some(pt), qp), qp);
+        }
+    }
+    let x1_delta = delta[1];
+    // A strategy with t' camera vertices exists if its connection joins two non-delta vertices
+    // (t' = n: the camera path hit the light by itself).
+    let usable = |tp: usize| -> bool {
+        (tp == n || (!delta[tp - 1] && !delta[tp])) && strategies.allowed(n - tp, tp, x1_delta)
+    };
+    let mut sum = 0.0f32;
+    let mut r = 1.0f32;
+    for tp in t + 1..=n {
+        r *= remap0(pf[tp - 1]) / remap0(pl[tp - 1]);
+        if usable(tp) {
+            sum += r;
+        }
+    }
+    r = 1.0;
+    for tp in (1..t).rev() {
+        r *= remap0(pl[tp]) / remap0(pf[tp]);
+        if usable(tp) {
+            sum += r;
+        }
+    }
+    1.0 / (1.0 + sum)
+}

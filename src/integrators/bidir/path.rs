@@ -1,0 +1,239 @@
+//! Path vertices and the random walks that make camera and light sub-paths. One representation
+//! serves LT, IBPT, BPT and MMLT: each vertex keeps its forward and reverse area densities so any
+//! (s, t) connection can be weighted against all other strategies (Veach's thesis, ch. 10).
+
+use crate::bsdf::Mode;
+use crate::math::{INV_PI, Rgb, Vec3, cosine_hemisphere};
+use crate::rng::Sampler;
+use crate::scene::Scene;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Camera,
+    /// A point on an emitter that starts a light sub-path.
+    Light,
+    Surface,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    pub kind: Kind,
+    pub p: Vec3,
+    /// Geometric normal (the view axis for the camera).
+    pub n: Vec3,
+    /// Unit direction towards the previous vertex of the same sub-path.
+    pub wo: Vec3,
+    pub tri: u32,
+    pub material: u32,
+    /// Sub-path throughput up to and including this vertex's generation.
+    pub beta: Rgb,
+    /// The vertex scatters only through delta lobes (cannot be connected to).
+    pub delta: bool,
+    /// Area density of generating this vertex from its own sub-path's side.
+    pub pdf_fwd: f32,
+    /// Area density of generating it from the other side.
+    pub pdf_rev: f32,
+}
+
+impl Vertex {
+    pub fn camera(scene: &Scene) -> Vertex {
+        Vertex {
+            kind: Kind::Camera,
+            p: scene.camera.position,
+            n: scene.camera.forward,
+            wo: Vec3::ZERO,
+            tri: u32::MAX,
+            material: u32::MAX,
+            beta: Rgb::ONE,
+            delta: false,
+            pdf_fwd: 1.0,
+            pdf_rev: 0.0,
+        }
+    }
+
+    pub fn on_surface(&self) -> bool {
+        self.kind != Kind::Camera
+    }
+
+    /// Solid-angle density, at this vertex, of sampling the direction to `next` having arrived
+    /// from `prev` (its BSDF), or of emitting/importance towards `next` for end vertices.
+    pub fn pdf_dir(&self, scene: &Scene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+        let w = (next.p - self.p).normalize();
+        match self.kind {
+            Kind::Camera => scene.camera.pdf_dir(w.dot(self.n)),
+            Kind::Light => emission_pdf(self.n, w),
+            Kind::Surface => {
+                let wo = match prev {
+                    Some(p) => (p.p - self.p).normalize(),
+                    None => self.wo,
+                };
+                scene.materials[self.material as usize]
+                    .bsdf
+                    .pdf(self.n, wo, w)
+            }
+        }
+    }
+
+    /// Convert a solid-angle density at this vertex towards `next` into an area density at `next`.
+    pub fn to_area(&self, pdf: f32, next: &Vertex) -> f32 {
+        let d = next.p - self.p;
+        let dist2 = d.length_squared();
+        if dist2 == 0.0 {
+            return 0.0;
+        }
+        let cos = if next.on_surface() {
+            (d.dot(next.n) / dist2.sqrt()).abs()
+        } else {
+            1.0
+        };
+        pdf * cos / dist2
+    }
+}
+
+/// Density of cosine-weighted emission from the front side of an area light.
+#[inline]
+pub fn emission_pdf(n: Vec3, w: Vec3) -> f32 {
+    let c = n.dot(w);
+    if c > 0.0 { c * INV_PI } else { 0.0 }
+}
+
+/// Extend `path` (which holds its first vertex) by a random walk from `o` along `d` until it has
+/// `max_vertices` vertices or the walk ends. `pdf` is the solid-angle density of `d`.
+pub fn random_walk(
+    scene: &Scene,
+    mut d: Vec3,
+    mut beta: Rgb,
+    mut pdf: f32,
+    sampler: &mut impl Sampler,
+    mode: Mode,
+    max_vertices: usize,
+    path: &mut Vec<Vertex>,
+) {
+    let mut o = {
+        let v = path.last().expect("walk starts from a vertex");
+        if v.on_surface() {
+            scene.offset(v.p, v.n, d)
+        } else {
+            v.p
+        }
+    };
+    while path.len() < max_vertices {
+        let Some(hit) = scene.intersect(o, d) else {
+            break;
+        };
+        let prev = *path.last().expect("non-empty path");
+        let material = &scene.materials[hit.material as usize];
+        let mut v = Vertex {
+            kind: Kind::Surface,
+            p: hit.p,
+            n: hit.n,
+            wo: -d,
+            tri: hit.tri,
+            material: hit.material,
+            beta,
+            delta: material.bsdf.is_delta(),
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+        };
+        v.pdf_fwd = prev.to_area(pdf, &v);
+        path.push(v);
+        if path.len() >= max_vertices {
+            break;
+        }
+        let (u, uc) = (sampler.next_2d(), sampler.next_1d());
+        let Some(s) = material.bsdf.sample(hit.n, -d, u, uc, mode) else {
+            break;
+        };
+        beta *= s.weight(hit.n);
+        // Delta lobes have no density to compare; pbrt's convention stores 0 and remaps it to
+        // 1 in MIS ratios, where the Dirac factors cancel.
+        let (pdf_fwd_sa, pdf_rev_sa) = if s.delta {
+            (0.0, 0.0)
+        } else {
+            (s.pdf, material.bsdf.pdf(hit.n, s.wi, -d))
+        };
+        let n = path.len();
+        let cur = path[n - 1];
+        path[n - 2].pdf_rev = cur.to_area(pdf_rev_sa, &path[n - 2]);
+        if beta == Rgb::ZERO || !beta.is_finite() {
+            break;
+        }
+        pdf = pdf_fwd_sa;
+        o = scene.offset(hit.p, hit.n, s.wi);
+        d = s.wi;
+    }
+}
+
+/// A camera sub-path through raster position (x, y): the camera vertex and up to
+/// `max_vertices − 1` surface vertices.
+pub fn camera_subpath(
+    scene: &Scene,
+    x: f32,
+    y: f32,
+    sampler: &mut impl Sampler,
+    max_vertices: usize,
+    path: &mut Vec<Vertex>,
+) {
+    path.clear();
+    let cam = Vertex::camera(scene);
+    path.push(cam);
+    let d = scene.camera.ray_dir(x, y);
+    let pdf = scene.camera.pdf_dir(d.dot(cam.n));
+    random_walk(
+        scene,
+        d,
+        Rgb::ONE,
+        pdf,
+        sampler,
+        Mode::Radiance,
+        max_vertices,
+        path,
+    );
+}
+
+/// A light sub-path: a point on a light chosen by power and up to `max_vertices − 1` surface
+/// vertices after cosine-weighted emission.
+pub fn light_subpath(
+    scene: &Scene,
+    sampler: &mut impl Sampler,
+    max_vertices: usize,
+    path: &mut Vec<Vertex>,
+) {
+    path.clear();
+    if scene.lights.is_empty() || max_vertices == 0 {
+        return;
+    }
+    let (u_sel, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+    let ls = scene.sample_light(u_sel, u_pos);
+    let l0 = Vertex {
+        kind: Kind::Light,
+        p: ls.p,
+        n: ls.n,
+        wo: Vec3::ZERO,
+        tri: ls.tri,
+        material: scene.tri_info[ls.tri as usize].material,
+        beta: ls.le / ls.pdf_area,
+        delta: false,
+        pdf_fwd: ls.pdf_area,
+        pdf_rev: 0.0,
+    };
+    path.push(l0);
+    let local = cosine_hemisphere(u_dir);
+    if local.z <= 0.0 {
+        return;
+    }
+    let frame = crate::math::Frame::new(ls.n);
+    let d = frame.to_world(local);
+    // Le·cos/(pdf_area·cos/π): the cosines cancel.
+    let beta = l0.beta * std::f32::consts::PI;
+    random_walk(
+        scene,
+        d,
+        beta,
+        local.z * INV_PI,
+        sampler,
+        Mode::Importance,
+        max_vertices,
+        path,
+    );
+}

@@ -34,7 +34,7 @@ pub fn furnace(albedo: f32, le: f32) -> Scene {
         "furnace".into(),
         "furnace".into(),
         camera,
-        200,
+        7,
         vec![mat],
         vec![m],
     )

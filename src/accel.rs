@@ -1,7 +1,16 @@
-//! Ray queries over triangles: a binary BVH built with binned SAH, traversed nearest-child first.
-//! Chosen over `obvhs` by measurement (BENCHMARKS.md).
+//! Ray queries over triangles, through `obvhs`' binary BVH (PLOC build with reinsertion and leaf
+//! collapsing, ordered stack traversal). Chosen by measurement over obvhs' CWBVH and the
+//! hand-written binned-SAH BVH this module used to hold: see BENCHMARKS.md, "Ray queries (BVH)",
+//! and `benches/bvh`.
 
 use crate::math::Vec3;
+use glam::Vec3A;
+use obvhs::BvhBuildParams;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::ray::RayHit;
+use obvhs::triangle::Triangle;
+use std::time::Duration;
 
 /// A ray with unit or non-unit direction; `t` is measured in units of `dir`.
 #[derive(Clone, Copy, Debug)]
@@ -19,318 +28,91 @@ pub struct Hit {
     pub b2: f32,
 }
 
-#[derive(Clone, Copy, Debug)]
-struct Node {
-    min: Vec3,
-    /// Leaf: first triangle; inner: index of the left child (the right one follows it).
-    first: u32,
-    max: Vec3,
-    /// Number of triangles; 0 for inner nodes.
-    count: u32,
-}
-
-/// Precomputed edges for Möller–Trumbore.
-#[derive(Clone, Copy, Debug)]
-struct Tri {
-    p0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
-    id: u32,
-}
-
 pub struct Bvh {
-    nodes: Vec<Node>,
-    tris: Vec<Tri>,
-}
-
-const BINS: usize = 16;
-const MAX_LEAF: usize = 4;
-
-#[derive(Clone, Copy)]
-struct Aabb {
-    min: Vec3,
-    max: Vec3,
-}
-
-impl Aabb {
-    const EMPTY: Aabb = Aabb {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
-    fn grow(&mut self, p: Vec3) {
-        self.min = self.min.min(p);
-        self.max = self.max.max(p);
-    }
-    fn merge(&mut self, b: &Aabb) {
-        self.min = self.min.min(b.min);
-        self.max = self.max.max(b.max);
-    }
-    fn area(&self) -> f32 {
-        let d = (self.max - self.min).max(Vec3::ZERO);
-        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
-    }
+    bvh: Bvh2,
+    /// The triangles in the BVH's leaf order, so traversal reads them without an indirection;
+    /// `bvh.primitive_indices[i]` is the caller's index of `tris[i]`.
+    tris: Vec<Triangle>,
 }
 
 impl Bvh {
     /// Build over triangles given as vertex triples; hit `prim` indexes this slice.
     pub fn new(triangles: &[[Vec3; 3]]) -> Bvh {
-        let mut tris: Vec<Tri> = triangles
+        let input: Vec<Triangle> = triangles
             .iter()
-            .enumerate()
-            .map(|(i, t)| Tri {
-                p0: t[0],
-                e1: t[1] - t[0],
-                e2: t[2] - t[0],
-                id: i as u32,
+            .map(|[a, b, c]| Triangle {
+                v0: (*a).into(),
+                v1: (*b).into(),
+                v2: (*c).into(),
             })
             .collect();
-        let boxes: Vec<Aabb> = triangles
+        // obvhs' middle preset, the one the benchmarks measured: it builds 20k triangles in a
+        // few ms (BENCHMARKS.md), nothing next to a render, so build speed is not worth trading
+        // tree quality for.
+        let bvh = build_bvh2_from_tris(
+            &input,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let tris = bvh
+            .primitive_indices
             .iter()
-            .map(|t| {
-                let mut b = Aabb::EMPTY;
-                t.iter().for_each(|p| b.grow(*p));
-                b
-            })
+            .map(|&i| input[i as usize])
             .collect();
-        let mut order: Vec<u32> = (0..tris.len() as u32).collect();
-        let centroids: Vec<Vec3> = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
-        let mut nodes = vec![Node {
-            min: Vec3::ZERO,
-            first: 0,
-            max: Vec3::ZERO,
-            count: 0,
-        }];
-        if !tris.is_empty() {
-            build(&mut nodes, 0, &mut order, 0, &boxes, &centroids);
-        }
-        tris = order.iter().map(|&i| tris[i as usize]).collect();
-        Bvh { nodes, tris }
+        Bvh { bvh, tris }
     }
 
     /// Nearest intersection with t in (0, t_max).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let mut best = Hit {
-            t: t_max,
-            prim: u32::MAX,
-            b1: 0.0,
-            b2: 0.0,
-        };
-        self.traverse(ray, &mut best, false);
-        (best.prim != u32::MAX).then_some(best)
+        let mut hit = RayHit::none();
+        let found = self
+            .bvh
+            .ray_traverse(open_interval(ray, t_max), &mut hit, |r, i| {
+                self.tris[i].intersect(r)
+            });
+        found.then(|| {
+            let i = hit.primitive_id as usize;
+            let (b1, b2) = barycentrics(&self.tris[i], ray);
+            Hit {
+                t: hit.t,
+                prim: self.bvh.primitive_indices[i],
+                b1,
+                b2,
+            }
+        })
     }
 
     /// Whether anything blocks the ray in (0, t_max).
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        let mut best = Hit {
-            t: t_max,
-            prim: u32::MAX,
-            b1: 0.0,
-            b2: 0.0,
-        };
-        self.traverse(ray, &mut best, true);
-        best.prim != u32::MAX
-    }
-
-    #[inline]
-    fn traverse(&self, ray: &Ray, best: &mut Hit, any: bool) {
-        if self.tris.is_empty() {
-            return;
-        }
-        let inv = Vec3::ONE / ray.dir;
-        let mut stack = [0u32; 64];
-        let mut sp = 0;
-        let mut node = &self.nodes[0];
-        if slab(node, ray.origin, inv, best.t).is_none() {
-            return;
-        }
-        loop {
-            if node.count > 0 {
-                let first = node.first as usize;
-                for tri in &self.tris[first..first + node.count as usize] {
-                    if let Some((t, b1, b2)) = intersect_tri(tri, ray, best.t) {
-                        *best = Hit {
-                            t,
-                            prim: tri.id,
-                            b1,
-                            b2,
-                        };
-                        if any {
-                            return;
-                        }
-                    }
-                }
-            } else {
-                let l = &self.nodes[node.first as usize];
-                let r = &self.nodes[node.first as usize + 1];
-                let tl = slab(l, ray.origin, inv, best.t);
-                let tr = slab(r, ray.origin, inv, best.t);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b {
-                            (l, node.first + 1)
-                        } else {
-                            (r, node.first)
-                        };
-                        stack[sp] = far;
-                        sp += 1;
-                        node = near;
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        node = l;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = r;
-                        continue;
-                    }
-                    (None, None) => {}
-                }
-            }
-            // Pop until a node still in front of the current best hit.
-            loop {
-                if sp == 0 {
-                    return;
-                }
-                sp -= 1;
-                let n = &self.nodes[stack[sp] as usize];
-                if slab(n, ray.origin, inv, best.t).is_some() {
-                    node = n;
-                    break;
-                }
-            }
-        }
+        !self
+            .bvh
+            .ray_traverse_miss(open_interval(ray, t_max), |r, i| self.tris[i].intersect(r))
     }
 }
 
-#[inline(always)]
-fn slab(n: &Node, o: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
-    let t0 = (n.min - o) * inv;
-    let t1 = (n.max - o) * inv;
-    let tmin = t0.min(t1).max_element().max(0.0);
-    let tmax = t0.max(t1).min_element().min(t_max);
-    (tmin <= tmax).then_some(tmin)
+/// obvhs accepts hits with t in the closed [tmin, tmax]; this module's contract is (0, t_max),
+/// which shadow rays rely on to not hit the light they end on.
+#[inline]
+fn open_interval(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
+    obvhs::ray::Ray::new(
+        Vec3A::from(ray.origin),
+        Vec3A::from(ray.dir),
+        0f32.next_up(),
+        t_max.next_down(),
+    )
 }
 
-#[inline(always)]
-fn intersect_tri(tri: &Tri, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
-    let p = ray.dir.cross(tri.e2);
-    let det = tri.e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let s = ray.origin - tri.p0;
-    let b1 = s.dot(p) * inv_det;
-    if !(0.0..=1.0).contains(&b1) {
-        return None;
-    }
-    let q = s.cross(tri.e1);
-    let b2 = ray.dir.dot(q) * inv_det;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return None;
-    }
-    let t = tri.e2.dot(q) * inv_det;
-    (t > 0.0 && t < t_max).then_some((t, b1, b2))
-}
-
-fn build(
-    nodes: &mut Vec<Node>,
-    ni: usize,
-    order: &mut [u32],
-    first: usize,
-    boxes: &[Aabb],
-    cents: &[Vec3],
-) {
-    let mut bounds = Aabb::EMPTY;
-    let mut cbounds = Aabb::EMPTY;
-    for &i in order.iter() {
-        bounds.merge(&boxes[i as usize]);
-        cbounds.grow(cents[i as usize]);
-    }
-    nodes[ni].min = bounds.min;
-    nodes[ni].max = bounds.max;
-    let leaf = |nodes: &mut Vec<Node>| {
-        nodes[ni].first = first as u32;
-        nodes[ni].count = order.len() as u32;
-    };
-    if order.len() <= MAX_LEAF {
-        return leaf(nodes);
-    }
-    // Binned SAH over the centroid bounds on every axis.
-    let extent = cbounds.max - cbounds.min;
-    let mut best = (f32::INFINITY, 0usize, 0usize);
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let scale = BINS as f32 / extent[axis];
-        let bin_of = |c: Vec3| (((c[axis] - cbounds.min[axis]) * scale) as usize).min(BINS - 1);
-        let mut bins = [(Aabb::EMPTY, 0usize); BINS];
-        for &i in order.iter() {
-            let b = &mut bins[bin_of(cents[i as usize])];
-            b.0.merge(&boxes[i as usize]);
-            b.1 += 1;
-        }
-        let mut right_area = [0.0f32; BINS];
-        let mut acc = (Aabb::EMPTY, 0usize);
-        for k in (1..BINS).rev() {
-            acc.0.merge(&bins[k].0);
-            acc.1 += bins[k].1;
-            right_area[k] = acc.0.area() * acc.1 as f32;
-        }
-        let mut left = (Aabb::EMPTY, 0usize);
-        for k in 1..BINS {
-            left.0.merge(&bins[k - 1].0);
-            left.1 += bins[k - 1].1;
-            let cost = left.0.area() * left.1 as f32 + right_area[k];
-            if left.1 > 0 && left.1 < order.len() && cost < best.0 {
-                best = (cost, axis, k);
-            }
-        }
-    }
-    // SAH costs are in units of one triangle test; a leaf of a few triangles is cheaper than
-    // a poor split.
-    let leaf_cost = bounds.area() * order.len() as f32;
-    if best.0.is_finite() && best.0 >= leaf_cost && order.len() <= 16 {
-        return leaf(nodes);
-    }
-    let mid = if best.0.is_finite() {
-        let (axis, k) = (best.1, best.2);
-        let scale = BINS as f32 / extent[axis];
-        let bin = |i: &u32| {
-            (((cents[*i as usize][axis] - cbounds.min[axis]) * scale) as usize).min(BINS - 1)
-        };
-        partition(order, |i| bin(i) < k)
-    } else {
-        // All centroids coincide: split in the middle to bound leaf size.
-        order.len() / 2
-    };
-    let left = nodes.len();
-    nodes[ni].first = left as u32;
-    nodes[ni].count = 0;
-    let blank = Node {
-        min: Vec3::ZERO,
-        first: 0,
-        max: Vec3::ZERO,
-        count: 0,
-    };
-    nodes.push(blank);
-    nodes.push(blank);
-    let (lo, hi) = order.split_at_mut(mid);
-    build(nodes, left, lo, first, boxes, cents);
-    build(nodes, left + 1, hi, first + mid, boxes, cents);
-}
-
-fn partition(v: &mut [u32], pred: impl Fn(&u32) -> bool) -> usize {
-    let mut i = 0;
-    for j in 0..v.len() {
-        if pred(&v[j]) {
-            v.swap(i, j);
-            i += 1;
-        }
-    }
-    i
+/// Barycentrics (of v1 and v2) where the ray meets the triangle's plane, by Möller–Trumbore.
+/// obvhs' traversal reports only t, so they are computed once, for the nearest hit.
+#[inline]
+fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
+    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+    let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
+    let p = d.cross(e2);
+    let inv_det = 1.0 / e1.dot(p);
+    let s = o - tri.v0;
+    let q = s.cross(e1);
+    (s.dot(p) * inv_det, d.dot(q) * inv_det)
 }
 
 #[cfg(test)]
@@ -351,35 +133,95 @@ mod tests {
             .collect()
     }
 
+    /// Textbook Möller–Trumbore, independent of obvhs' test: (t, b1, b2) with t in (0, t_max).
+    fn reference_hit(t: &[Vec3; 3], ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+        let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+        let p = ray.dir.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let s = ray.origin - t[0];
+        let b1 = s.dot(p) / det;
+        let q = s.cross(e1);
+        let b2 = ray.dir.dot(q) / det;
+        let t = e2.dot(q) / det;
+        (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 && t > 0.0 && t < t_max).then_some((t, b1, b2))
+    }
+
     #[test]
     fn bvh_matches_brute_force() {
         let tris = random_tris(2000);
         let bvh = Bvh::new(&tris);
         let mut r = Rng::new(9, 0, 0);
+        let mut hits = 0;
         for _ in 0..2000 {
             let o = Vec3::new(r.next_1d(), r.next_1d(), r.next_1d()) * 12.0 - 1.0;
             let d = Vec3::new(r.next_1d() - 0.5, r.next_1d() - 0.5, r.next_1d() - 0.5).normalize();
             let ray = Ray { origin: o, dir: d };
-            let mut brute: Option<(f32, u32)> = None;
+            let mut brute: Option<(f32, u32, f32, f32)> = None;
             for (i, t) in tris.iter().enumerate() {
-                let tri = Tri {
-                    p0: t[0],
-                    e1: t[1] - t[0],
-                    e2: t[2] - t[0],
-                    id: i as u32,
-                };
-                if let Some((t, _, _)) =
-                    intersect_tri(&tri, &ray, brute.map_or(f32::INFINITY, |b| b.0))
+                if let Some((t, b1, b2)) =
+                    reference_hit(t, &ray, brute.map_or(f32::INFINITY, |b| b.0))
                 {
-                    brute = Some((t, i as u32));
+                    brute = Some((t, i as u32, b1, b2));
                 }
             }
             let hit = bvh.intersect(&ray, f32::INFINITY);
             assert_eq!(hit.map(|h| h.prim), brute.map(|b| b.1));
             assert_eq!(bvh.occluded(&ray, f32::INFINITY), brute.is_some());
-            if let Some((t, _)) = brute {
+            if let (Some(h), Some((t, _, b1, b2))) = (hit, brute) {
+                hits += 1;
+                assert!((h.t - t).abs() <= 1e-4 * t, "t {} vs {t}", h.t);
+                assert!((h.b1 - b1).abs() < 1e-4 && (h.b2 - b2).abs() < 1e-4);
                 assert!(!bvh.occluded(&ray, t * 0.999));
+                assert!(bvh.intersect(&ray, t * 0.999).is_none());
             }
         }
+        // The rays must exercise both outcomes for the comparison to mean anything.
+        assert!(hits > 200 && hits < 1800, "{hits} hits");
+    }
+
+    #[test]
+    fn t_max_is_exclusive_and_small_scenes_work() {
+        assert!(
+            Bvh::new(&[])
+                .intersect(
+                    &Ray {
+                        origin: Vec3::ZERO,
+                        dir: Vec3::Z
+                    },
+                    1.0
+                )
+                .is_none()
+        );
+        let tri = [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
+        let bvh = Bvh::new(&[tri]);
+        let ray = Ray {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+        };
+        let hit = bvh
+            .intersect(&ray, f32::INFINITY)
+            .expect("hits the one triangle");
+        assert_eq!((hit.t, hit.prim), (1.0, 0));
+        let p = tri[0] * (1.0 - hit.b1 - hit.b2) + tri[1] * hit.b1 + tri[2] * hit.b2;
+        assert!((p - Vec3::Z).length() < 1e-6);
+        // A shadow segment that ends exactly on the surface is not blocked by it.
+        assert!(!bvh.occluded(&ray, 1.0));
+        assert!(bvh.occluded(&ray, 1.001));
+        let back = Ray {
+            origin: Vec3::new(0.0, 0.0, 2.0),
+            dir: -Vec3::Z,
+        };
+        // `-Vec3::Z` has components of -0.0, on which obvhs 0.4's CWBVH misses (BENCHMARKS.md).
+        assert!(
+            bvh.occluded(&back, 1.5),
+            "no backface culling, -0.0 handled"
+        );
     }
 }

@@ -93,6 +93,7 @@ fn compare(ours: &Path, reference: &Path) -> (i32, Value, String) {
 
 #[test]
 fn cornell_box_matches_mitsuba_path_tracer() {
+    util::python(); // fail at once, before rendering, without tools/.venv
     let dir = TempDir::new("mitsuba-cornell");
     let xml = export_cornell(&dir);
     let (ours, theirs) = (dir.join("ours.exr"), dir.join("mitsuba.exr"));
@@ -110,6 +111,7 @@ fn cornell_box_matches_mitsuba_path_tracer() {
 /// same comparison must fail against Mitsuba's max_depth 3, so it can tell one bounce apart.
 #[test]
 fn direct_light_matches_mitsuba_and_one_more_bounce_does_not() {
+    util::python();
     let dir = TempDir::new("mitsuba-direct");
     let xml = export_cornell(&dir);
     let ours = dir.join("ours-d1.exr");

@@ -17,6 +17,7 @@ import datetime
 import json
 import os
 import platform
+import resource
 import statistics
 import subprocess
 import sys
@@ -45,14 +46,20 @@ def bench_ours(tmp, spp, runs, depth):
     omc = os.path.join(ROOT, "target/release/mixmc-omc")
     if not os.access(omc, os.X_OK):
         sys.exit("bench_pt.py: target/release/mixmc-omc is missing: run cargo build --release")
-    render, wall = [], []
+    render, wall, cpu = [], [], []
     for r in range(runs):
         out = os.path.join(tmp, f"ours{r}.exr")
-        t = time.perf_counter()
+        t, c = time.perf_counter(), children_cpu()
         run([omc, SCENE, "-o", out, "--spp", str(spp), "--seed", str(r + 1), "--max-depth", str(depth), "-q"])
         wall.append(time.perf_counter() - t)
+        cpu.append(children_cpu() - c)
         render.append(exr_float(out, "mixmc.seconds"))
-    return render, wall
+    return render, wall, cpu
+
+
+def children_cpu():
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
 
 
 def bench_mitsuba(xml, variant, spp, runs, depth):
@@ -60,7 +67,7 @@ def bench_mitsuba(xml, variant, spp, runs, depth):
                "--spp", str(spp), "--max-depth", str(depth), "--runs", str(runs + 1),
                "--pass-samples", str(256 * 256 * spp), "--json"])
     res = json.loads(out.strip().splitlines()[-1])
-    return res["seconds"][0], res["seconds"][1:], res["mitsuba"]
+    return res["seconds"][0], res["seconds"][1:], res["cpu_seconds"][1:], res["mitsuba"]
 
 
 def machine():
@@ -88,11 +95,11 @@ def main():
     with tempfile.TemporaryDirectory(prefix="mixmc-bench-") as tmp:
         run([os.path.join(ROOT, "target/release/mixmc-scene"), "export", SCENE, "--mitsuba", tmp])
         xml = os.path.join(tmp, "scene.xml")
-        render, wall = bench_ours(tmp, a.spp, a.runs, depth)
-        rows.append(("mixmc-omc `--method pt`", None, render, f"wall {statistics.median(wall):.2f} s"))
+        render, wall, cpu = bench_ours(tmp, a.spp, a.runs, depth)
+        rows.append(("mixmc-omc `--method pt`", None, render, cpu, f"process wall {statistics.median(wall):.2f} s"))
         for variant in ("llvm_ad_rgb", "scalar_rgb"):
-            cold, warm, version = bench_mitsuba(xml, variant, a.spp, a.runs, depth)
-            rows.append((f"Mitsuba {version} `{variant}`", cold, warm, ""))
+            cold, warm, cpu, version = bench_mitsuba(xml, variant, a.spp, a.runs, depth)
+            rows.append((f"Mitsuba {version} `{variant}`", cold, warm, cpu, ""))
     load_after = os.getloadavg()[0]
 
     ours = samples / statistics.median(rows[0][2])
@@ -105,15 +112,18 @@ def main():
         f"samples per run, max_depth {depth} (Mitsuba `path` max_depth {depth + 1}), all cores. Ours is timed "
         "by `mixmc.seconds` (render loop only: no scene load, BVH, G-buffer or EXR write); Mitsuba by its "
         "`mi.render` calls (no import or scene load). Median of the warm runs; \"cold\" is Mitsuba's first "
-        "render in the process, JIT compilation included, left out of the median.", "",
-        "| renderer | median s | M samples/s | speed of ours ÷ its | cold (1st) s | runs (s) | note |",
-        "|---|---:|---:|---:|---:|---|---|",
+        "render in the process, JIT compilation included (Dr.Jit also caches kernels on disk, in ~/.drjit), "
+        "left out of the median. Samples per CPU-second (user + system time of all threads; for ours the "
+        "whole process) are less disturbed by other jobs on the machine.", "",
+        "| renderer | median s | M samples/s | speed of ours ÷ its | M samples per CPU-s | cold (1st) s | runs (s) | note |",
+        "|---|---:|---:|---:|---:|---:|---|---|",
     ]
-    for name, cold, times, note in rows:
+    for name, cold, times, cpu, note in rows:
         med = statistics.median(times)
         rate = samples / med
         lines.append(f"| {name} | {med:.2f} | {rate / 1e6:.3f} | {ours / rate:.2f} | "
-                     f"{'' if cold is None else f'{cold:.2f}'} | {', '.join(f'{t:.2f}' for t in times)} | {note} |")
+                     f"{samples / statistics.median(cpu) / 1e6:.3f} | {'' if cold is None else f'{cold:.2f}'} | "
+                     f"{', '.join(f'{t:.2f}' for t in times)} | {note} |")
     section = "\n".join(lines) + "\n"
     print(section)
     if a.update:

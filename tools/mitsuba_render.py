@@ -49,12 +49,13 @@ def pick_variant(mi, wanted):
 
 
 def render(mi, scene, integrator, width, height, spp, seed, pass_samples):
-    """Average of passes of `spp` samples per pixel in total; returns (H x W x 3 array, seconds)."""
+    """Average of passes of `spp` samples per pixel in total; returns (H x W x 3 array, seconds,
+    CPU seconds of all the process's threads)."""
     import numpy as np
 
     per_pass = max(1, min(spp, pass_samples // (width * height)))
     total = np.zeros((height, width, 3), dtype=np.float64)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     done, k = 0, 0
     while done < spp:
         n = min(per_pass, spp - done)
@@ -62,7 +63,7 @@ def render(mi, scene, integrator, width, height, spp, seed, pass_samples):
         total += np.asarray(img, dtype=np.float64)[:, :, :3] * n  # forces evaluation of JIT variants
         done += n
         k += 1
-    return (total / spp).astype(np.float32), time.perf_counter() - start
+    return (total / spp).astype(np.float32), time.perf_counter() - start, time.process_time() - cpu
 
 
 def write_exr(path, rgb, attrs):
@@ -114,10 +115,11 @@ def main():
         integrator = mi.load_dict({"type": "path", "max_depth": a.max_depth + 1})
     width, height = (int(v) for v in scene.sensors()[0].film().crop_size())
 
-    seconds, first = [], None
+    seconds, cpu_seconds, first = [], [], None
     for r in range(a.runs):
-        rgb, s = render(mi, scene, integrator, width, height, a.spp, a.seed + r, a.pass_samples)
+        rgb, s, cpu = render(mi, scene, integrator, width, height, a.spp, a.seed + r, a.pass_samples)
         seconds.append(s)
+        cpu_seconds.append(cpu)
         if first is None:
             first = rgb
     samples = width * height * a.spp
@@ -132,7 +134,7 @@ def main():
         })
     result = {
         "variant": variant, "mitsuba": mi.__version__, "width": width, "height": height,
-        "spp": a.spp, "samples": samples, "load_seconds": load_s, "seconds": seconds,
+        "spp": a.spp, "samples": samples, "load_seconds": load_s, "seconds": seconds, "cpu_seconds": cpu_seconds,
         "samples_per_second": [samples / s for s in seconds], "output": a.output,
     }
     if a.json:
@@ -140,7 +142,7 @@ def main():
     else:
         for r, s in enumerate(seconds):
             print(f"{a.output or a.scene}: {variant} run {r + 1}/{a.runs}: {width}x{height} x {a.spp} spp "
-                  f"in {s:.3f} s = {samples / s / 1e6:.3f} M samples/s")
+                  f"in {s:.3f} s = {samples / s / 1e6:.3f} M samples/s ({cpu_seconds[r]:.2f} CPU s)")
         print(f"(scene load {load_s:.3f} s, not counted)")
 
 

@@ -20,6 +20,7 @@ Exit codes (as idiff): 0 within both tolerances, 1 differs, 2 usage or input err
 """
 import argparse
 import json
+import math
 import sys
 
 PROG = "compare_images.py"
@@ -91,6 +92,15 @@ def compare_channel(a, b, keep, block, floor):
     }
 
 
+def strict(x):
+    """x with every NaN or infinity replaced by None, for strict JSON."""
+    if isinstance(x, dict):
+        return {k: strict(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [strict(v) for v in x]
+    return None if isinstance(x, float) and not math.isfinite(x) else x
+
+
 def main():
     ap = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0])
     ap.add_argument("a", help="image to check (EXR or anything OpenImageIO reads)")
@@ -138,9 +148,9 @@ def main():
           + ("" if finite else ", non-finite pixels")
           + ("" if keep.all() else f"; {int((~keep).sum())} pixels near ones > {a.exclude_above:g} left out of the blocks"))
     if a.json:
-        print(json.dumps({"ok": ok, "mean_rel_max": mean_worst, "block_rel_max": block_worst, "finite": finite,
+        print(json.dumps(strict({"ok": ok, "mean_rel_max": mean_worst, "block_rel_max": block_worst, "finite": finite,
                           "block": a.block, "mean_tol": a.mean_tol, "block_tol": a.block_tol, "floor": a.floor,
-                          "excluded_pixels": int((~keep).sum()), "channels": results}))
+                          "excluded_pixels": int((~keep).sum()), "channels": results})))
     sys.exit(0 if ok else 1)
 
 

@@ -39,14 +39,8 @@ fn render_ours(out: &Path, spp: u32, seed: u32, max_depth: Option<u32>) {
 fn render_mitsuba(xml: &Path, out: &Path, spp: u32, seed: u32, max_depth: Option<u32>) {
     let mut cmd = util::python_tool("mitsuba_render.py");
     cmd.arg(xml).arg("-o").arg(out);
-    cmd.args([
-        "--variant",
-        "llvm_ad_rgb",
-        "--spp",
-        &spp.to_string(),
-        "--seed",
-        &seed.to_string(),
-    ]);
+    // No --variant: llvm_ad_rgb where libLLVM loads, else scalar_rgb (slower, same image).
+    cmd.args(["--spp", &spp.to_string(), "--seed", &seed.to_string()]);
     if let Some(d) = max_depth {
         cmd.args(["--max-depth", &d.to_string()]);
     }

@@ -59,3 +59,91 @@ pub fn python() -> PathBuf {
     );
     p
 }
+
+// ---- Helpers for the cross-checks against other tools (tests/mitsuba.rs) ----
+
+pub const OMC: &str = env!("CARGO_BIN_EXE_mixmc-omc");
+pub const SCENE: &str = env!("CARGO_BIN_EXE_mixmc-scene");
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A script under `tools/`.
+pub fn tool(name: &str) -> PathBuf {
+    root().join("tools").join(name)
+}
+
+/// A `Command` running a script of `tools/` with the venv's Python (fails without tools/.venv).
+pub fn python_tool(script: &str) -> Command {
+    let mut cmd = Command::new(python());
+    cmd.arg(tool(script));
+    cmd
+}
+
+/// A fresh directory under the system temp dir, removed when the test passes and kept (with its
+/// path printed) when it fails, for a look at the images.
+pub struct TempDir(PathBuf);
+
+impl TempDir {
+    pub fn new(name: &str) -> TempDir {
+        TempDir(temp_dir(name))
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+
+    pub fn join(&self, rel: &str) -> PathBuf {
+        self.0.join(rel)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("test files kept in {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// Describe a command for messages.
+pub fn describe(cmd: &Command) -> String {
+    let mut s = cmd.get_program().to_string_lossy().into_owned();
+    for a in cmd.get_args() {
+        s.push(' ');
+        s.push_str(&a.to_string_lossy());
+    }
+    s
+}
+
+/// Run any command to completion and return its output (stdout and stderr captured).
+pub fn cmd_output(cmd: &mut Command) -> Output {
+    cmd.output()
+        .unwrap_or_else(|e| panic!("cannot start {}: {e}", describe(cmd)))
+}
+
+/// Run any command that must succeed; on failure, panic with its exit status and output.
+pub fn run_cmd(cmd: &mut Command) -> Output {
+    let out = cmd_output(cmd);
+    assert!(
+        out.status.success(),
+        "{} failed ({})\n{}",
+        describe(cmd),
+        out.status,
+        show(&out)
+    );
+    out
+}
+
+/// Stdout and stderr of a finished command, for assertion messages.
+pub fn show(out: &Output) -> String {
+    format!(
+        "--- stdout ---\n{}--- stderr ---\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}

@@ -185,8 +185,9 @@ mod tests {
 
     #[test]
     fn materials_depths_normals_and_background_split() {
-        // 6×4: left half material 0 facing the camera, right half material 1; a depth step (5 → 9, more than 2 pixel sizes of 0.73) in
-        // row 3 of the left half; background in the top-right corner; a tilted normal at (1,0).
+        // 6×4: left half material 0 facing the camera, right half material 1; a depth step
+        // 5 → 9 (more than 2 pixel sizes of 0.73 at this tiny height) in row 3 of the left half;
+        // background in the top-right corner; a tilted normal at (1,0).
         let (w, h) = (6, 4);
         let mut matid = vec![0.0f32; w * h];
         let mut depth = vec![5.0f32; w * h];

@@ -10,6 +10,7 @@ pub mod exrio;
 pub mod film;
 pub mod integrators;
 pub mod lights;
+pub mod mask;
 pub mod math;
 pub mod omc;
 pub mod output;

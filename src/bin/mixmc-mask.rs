@@ -1,0 +1,259 @@
+//! `mixmc-mask omc.exr -o mask.exr`: the paper's blending mask α (DESIGN §5) from an OMC render's
+//! indirect light and G-buffer; see `mixmc::mask` for the steps and the default's spike gate.
+
+use clap::Parser;
+use mixmc::cli::main_with;
+use mixmc::error::{Error, Result};
+use mixmc::exrio::ExrImage;
+use mixmc::mask::{Channels, Mask, MaskInput, MaskParams, build, inspect};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Used when neither `--fov` nor the input's `mixmc.fov_y` header gives the field of view.
+const FALLBACK_FOV: f32 = 40.0;
+
+#[derive(Parser)]
+#[command(
+    name = "mixmc-mask",
+    version,
+    about = "Build the blending mask α (1 where ordinary Monte Carlo fails, ε elsewhere) from an OMC render",
+    after_help = "Input channels default to mixmc-omc's; other renderers' AOVs are named with --indirect, \
+--depth, --normal, --matid. Background = non-finite depth or negative material id. The field of view \
+for the depth rule comes from --fov, else the input's mixmc.fov_y header, else 40 degrees (with a warning)."
+)]
+struct Args {
+    /// Input EXR (mixmc-omc's omc.exr, or any EXR with the channels named below).
+    input: PathBuf,
+    /// Output EXR with channels alpha, segment, noise, weight.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// The literal paper variant: no spike gate, every top pixel above the median fills its segment.
+    #[arg(long)]
+    paper: bool,
+    /// Median window width (odd: 3, 5 or 7).
+    #[arg(long, default_value_t = 7)]
+    window: usize,
+    /// Fraction of the noisiest pixels that get a sigmoid weight.
+    #[arg(long, default_value_t = 0.10)]
+    top: f64,
+    /// Sigmoid steepness k in 1 / (1 + exp(−k (n − m) / m)).
+    #[arg(long, default_value_t = 4.0)]
+    k: f64,
+    /// Neighbours join a segment only if their normals differ by less than this (|ΔN|).
+    #[arg(long, default_value_t = 0.15)]
+    normal_tol: f32,
+    /// … and their depths by less than this many projected pixel sizes.
+    #[arg(long, default_value_t = 2.0)]
+    depth_tol: f32,
+    /// Vertical field of view in degrees [default: the input's mixmc.fov_y header, else 40].
+    #[arg(long)]
+    fov: Option<f32>,
+    /// ε: the mask's value outside complex regions (0 < ε < 0.5).
+    #[arg(long, default_value_t = 0.1)]
+    epsilon: f32,
+    /// Above this fraction of complex pixels, write α ≡ 1 (render with MCMC only).
+    #[arg(long, default_value_t = 0.35)]
+    switch: f64,
+    /// Spike gate (not with --paper): a pixel's noise must be this many times its segment's median noise.
+    #[arg(long, default_value_t = 16.0)]
+    contrast: f32,
+    /// Spike gate (not with --paper): … and at least this times the image's mean indirect luminance.
+    #[arg(long, default_value_t = 5.0)]
+    min_level: f32,
+    /// Indirect light: a channel prefix (PREFIX.R/G/B) or three comma-separated names.
+    #[arg(long, default_value = "indirect")]
+    indirect: String,
+    /// Depth channel (distance; non-finite = background).
+    #[arg(long, default_value = "Z")]
+    depth: String,
+    /// Normal: a channel prefix (PREFIX.X/Y/Z) or three comma-separated names.
+    #[arg(long, default_value = "N")]
+    normal: String,
+    /// Material id channel (negative = background).
+    #[arg(long, default_value = "matid")]
+    matid: String,
+    /// Write one PNG per step into this directory.
+    #[arg(long)]
+    inspect: Option<PathBuf>,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+fn check(ok: bool, what: &str) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::new(what.to_string()))
+    }
+}
+
+impl Args {
+    fn params(&self, fov_y: f32) -> Result<MaskParams> {
+        check(
+            matches!(self.window, 3 | 5 | 7),
+            "--window must be 3, 5 or 7",
+        )?;
+        check(self.top > 0.0 && self.top <= 1.0, "--top must be in (0, 1]")?;
+        check(self.k > 0.0 && self.k.is_finite(), "--k must be positive")?;
+        check(
+            self.normal_tol > 0.0 && self.depth_tol > 0.0,
+            "--normal-tol and --depth-tol must be positive",
+        )?;
+        check(
+            fov_y > 0.0 && fov_y < 180.0,
+            "--fov must be in (0, 180) degrees",
+        )?;
+        check(
+            self.epsilon > 0.0 && self.epsilon < 0.5,
+            "--epsilon must be in (0, 0.5)",
+        )?;
+        check(
+            self.switch > 0.0 && self.switch <= 1.0,
+            "--switch must be in (0, 1]",
+        )?;
+        check(
+            self.contrast >= 0.0 && self.min_level >= 0.0,
+            "--contrast and --min-level must not be negative",
+        )?;
+        Ok(MaskParams {
+            window: self.window,
+            top: self.top,
+            k: self.k,
+            normal_tol: self.normal_tol,
+            depth_tol: self.depth_tol,
+            fov_y,
+            epsilon: self.epsilon,
+            switch: self.switch,
+            paper: self.paper,
+            contrast: self.contrast,
+            min_level: self.min_level,
+        })
+    }
+}
+
+/// The field of view and where it came from.
+fn fov(args: &Args, img: &ExrImage) -> (f32, &'static str) {
+    if let Some(f) = args.fov {
+        return (f, "--fov");
+    }
+    match img.float_attr("mixmc.fov_y") {
+        Some(f) => (f as f32, "header"),
+        None => (FALLBACK_FOV, "fallback"),
+    }
+}
+
+fn output_image(img: &ExrImage, m: &Mask, p: &MaskParams, input: &Path) -> ExrImage {
+    let mut out = ExrImage::new(m.width, m.height);
+    out.add("alpha", m.alpha.clone());
+    out.add(
+        "segment",
+        m.segments.labels.iter().map(|&l| l as f32).collect(),
+    );
+    out.add("noise", m.noise.clone());
+    out.add("weight", m.weight.clone());
+    out.set_text("mixmc.tool", "mixmc-mask");
+    out.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
+    out.set_text("mixmc.mask.input", input.display().to_string());
+    if let Some(scene) = img.text_attr("mixmc.scene") {
+        out.set_text("mixmc.scene", scene);
+    }
+    out.set_text("mixmc.mask.mode", if p.paper { "paper" } else { "robust" });
+    for (k, v) in [
+        ("window", p.window as f64),
+        ("top", p.top),
+        ("k", p.k),
+        ("normal_tol", p.normal_tol as f64),
+        ("depth_tol", p.depth_tol as f64),
+        ("fov_y", p.fov_y as f64),
+        ("epsilon", p.epsilon as f64),
+        ("switch", p.switch),
+        ("contrast", p.contrast as f64),
+        ("min_level", p.min_level as f64),
+        ("complex_fraction", m.complex_fraction),
+        ("segments", m.segments.count as f64),
+        ("complex_segments", m.complex_segments as f64),
+    ] {
+        out.set_float(&format!("mixmc.mask.{k}"), v);
+    }
+    out.set_text(
+        "mixmc.mask.switched",
+        if m.switched { "true" } else { "false" },
+    );
+    out
+}
+
+fn main() -> ExitCode {
+    main_with("mixmc-mask", || {
+        let args = Args::parse();
+        if let Some(n) = args.threads {
+            check(n > 0, "--threads must be at least 1")?;
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
+        }
+        let img = ExrImage::read(&args.input)?;
+        let (fov_y, fov_source) = fov(&args, &img);
+        let params = args.params(fov_y)?;
+        let channels = Channels {
+            indirect: args.indirect.clone(),
+            depth: args.depth.clone(),
+            normal: args.normal.clone(),
+            matid: args.matid.clone(),
+        };
+        let input = MaskInput::from_exr(&img, &channels).map_err(|e| e.with_file(&args.input))?;
+        if fov_source == "fallback" {
+            eprintln!(
+                "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",
+                args.input.display()
+            );
+        }
+        let start = Instant::now();
+        let mask = build(&input, &params);
+        let seconds = start.elapsed().as_secs_f64();
+        if let Some(dir) = &args.inspect {
+            inspect::write_steps(dir, &input, &mask)?;
+        }
+        output_image(&img, &mask, &params, &args.input).write(&args.output, false)?;
+        let switch_note = if mask.switched {
+            format!(
+                "; above --switch {}: MCMC only, alpha = 1 everywhere",
+                params.switch
+            )
+        } else {
+            String::new()
+        };
+        if args.json {
+            let summary = serde_json::json!({
+                "output": args.output.display().to_string(),
+                "width": mask.width,
+                "height": mask.height,
+                "mode": if params.paper { "paper" } else { "robust" },
+                "complex_fraction": mask.complex_fraction,
+                "segments": mask.segments.count,
+                "complex_segments": mask.complex_segments,
+                "switched": mask.switched,
+                "threshold": mask.threshold,
+                "top_median": mask.top_median,
+                "fov_y": params.fov_y,
+                "fov_source": fov_source,
+                "compute_seconds": seconds,
+            });
+            println!("{summary}");
+        } else {
+            println!(
+                "{}: complex {:.2}% of pixels, {} of {} segments{switch_note}",
+                args.output.display(),
+                100.0 * mask.complex_fraction,
+                mask.complex_segments,
+                mask.segments.count,
+            );
+        }
+        Ok(ExitCode::SUCCESS)
+    })
+}

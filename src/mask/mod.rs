@@ -1,0 +1,17 @@
+//! The blending mask α of the paper's §3.1 (DESIGN §5): where ordinary Monte Carlo fails, α = 1
+//! and MCMC renders the indirect light; elsewhere α = ε. Steps: median-difference noise, sigmoid
+//! weights of the noisiest pixels, G-buffer segments, fill, clamp, binarise.
+//!
+//! `median` is the fast w×w median filter, `segment` the G-buffer segmentation, `select` exact
+//! order statistics, `pipeline` the steps themselves, `input` reads the AOVs from any EXR and
+//! `inspect` writes one PNG per step.
+
+pub mod input;
+pub mod inspect;
+pub mod median;
+pub mod pipeline;
+pub mod segment;
+pub mod select;
+
+pub use input::{Channels, MaskInput};
+pub use pipeline::{Mask, MaskParams, build};

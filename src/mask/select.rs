@@ -1,0 +1,100 @@
+//! Exact order statistics of non-negative floats by radix selection: two parallel histogram
+//! passes over the bit patterns (16 high bits, then 16 low bits) instead of a copy and a
+//! quickselect, because the mask needs two quantiles of millions of values and a sequential
+//! selection would dominate its run time.
+//!
+//! For non-negative IEEE floats the bit patterns, read as unsigned integers, sort in the same
+//! order as the values, so the k-th value by bits is the k-th value.
+
+use rayon::prelude::*;
+
+const BINS: usize = 1 << 16;
+const PAR_CHUNK: usize = 1 << 18;
+
+/// Histogram of `key(bits)` over the values whose bits satisfy `keep`.
+fn histogram(
+    values: &[f32],
+    keep: impl Fn(u32) -> bool + Sync,
+    key: impl Fn(u32) -> usize + Sync,
+) -> Vec<u64> {
+    values
+        .par_chunks(PAR_CHUNK)
+        .map(|chunk| {
+            let mut h = vec![0u64; BINS];
+            for v in chunk {
+                let b = v.to_bits();
+                if keep(b) {
+                    h[key(b)] += 1;
+                }
+            }
+            h
+        })
+        .reduce(
+            || vec![0u64; BINS],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                a
+            },
+        )
+}
+
+/// Walk a histogram from the top: the bin holding the value of descending rank `rank`
+/// (0 = largest), and the rank left within that bin.
+fn bin_of_rank(hist: &[u64], mut rank: u64) -> (usize, u64) {
+    for bin in (0..hist.len()).rev() {
+        if rank < hist[bin] {
+            return (bin, rank);
+        }
+        rank -= hist[bin];
+    }
+    (0, 0)
+}
+
+/// The value of descending rank `rank` (0 = the largest) among `values`, which must all be
+/// non-negative and finite, with `rank < values.len()`.
+pub fn nth_largest(values: &[f32], rank: usize) -> f32 {
+    assert!(
+        rank < values.len(),
+        "rank {rank} out of {} values",
+        values.len()
+    );
+    let high = histogram(values, |_| true, |b| (b >> 16) as usize);
+    let (hi_bin, rest) = bin_of_rank(&high, rank as u64);
+    let low = histogram(
+        values,
+        |b| (b >> 16) as usize == hi_bin,
+        |b| (b & 0xffff) as usize,
+    );
+    let (lo_bin, _) = bin_of_rank(&low, rest);
+    f32::from_bits(((hi_bin as u32) << 16) | lo_bin as u32)
+}
+
+/// The median of `values` (non-negative, finite, not empty): for an even count the upper of
+/// the two middle values, so the result is always one of the values.
+pub fn median(values: &[f32]) -> f32 {
+    nth_largest(values, (values.len() - 1) / 2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::mix64;
+
+    #[test]
+    fn matches_sorting() {
+        let values: Vec<f32> = (0..100_000u64)
+            .map(|i| match i % 5 {
+                0 => 0.0,
+                1 => 1.5,
+                _ => (mix64(i) >> 40) as f32 / 1e4,
+            })
+            .collect();
+        let mut sorted = values.clone();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        for rank in [0, 1, 17, 9_999, 50_000, 79_999, 80_000, 99_999] {
+            assert_eq!(nth_largest(&values, rank), sorted[rank], "rank {rank}");
+        }
+        assert_eq!(median(&[3.0, 1.0, 2.0, 5.0]), 3.0);
+        assert_eq!(median(&[7.0]), 7.0);
+    }
+}

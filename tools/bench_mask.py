@@ -1,0 +1,98 @@
+#!/usr/bin/env python3
+"""Speed of mixmc-mask on a 3840x2160 input against OpenCV's medianBlur 5x5 + absdiff, in one run.
+
+  tools/.venv/bin/python tools/bench_mask.py [--runs 5] [--workdir /tmp/mixmc-bench-mask]
+
+The input is the caustic scene rendered at 128x128 (16 spp), its G-buffer upscaled to 3840x2160 by
+nearest neighbour and its indirect light upscaled bilinearly times per-pixel noise (lognormal,
+sigma 0.5, plus 0.2% fireflies x50), so that the median has real work and the segments are the
+scene's. mixmc-mask reports the seconds of its computation (after reading, before writing) in
+--json; OpenCV is timed on the float32 luminance, which it gets for free. Medians of --runs runs.
+"""
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+
+import cv2
+import numpy as np
+import OpenImageIO as oiio
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.path.join(ROOT, "target", "release")
+W, H = 3840, 2160
+
+
+def make_input(path):
+    small = path + ".small.exr"
+    subprocess.run([os.path.join(BIN, "mixmc-omc"), os.path.join(ROOT, "fixtures/scenes/caustic.json"),
+                    "-o", small, "--spp", "16", "-q"], check=True, stdout=subprocess.DEVNULL)
+    inp = oiio.ImageInput.open(small)
+    spec = inp.spec()
+    px = inp.read_image(format="float")
+    inp.close()
+    names = list(spec.channelnames)
+    rng = np.random.default_rng(1)
+    noise = rng.lognormal(0.0, 0.5, (H, W)).astype(np.float32)
+    noise[rng.random((H, W)) < 0.002] *= 50
+    out = {}
+    for i, n in enumerate(names):
+        if n.startswith("indirect."):
+            out[n] = cv2.resize(px[:, :, i], (W, H), interpolation=cv2.INTER_LINEAR) * noise
+        elif n in ("Z", "matid") or n.startswith("N."):
+            out[n] = cv2.resize(px[:, :, i], (W, H), interpolation=cv2.INTER_NEAREST)
+    keep = sorted(out)
+    spec = oiio.ImageSpec(W, H, len(keep), "float")
+    spec.channelnames = keep
+    # A 4K frame at this scene's field of view: the depth rule's pixel size follows the height.
+    spec.attribute("mixmc.fov_y", 40.0)
+    o = oiio.ImageOutput.create(path)
+    o.open(path, spec)
+    o.write_image(np.stack([out[k] for k in keep], axis=-1))
+    o.close()
+    y = (np.float32(0.2126) * out["indirect.R"] + np.float32(0.7152) * out["indirect.G"]
+         + np.float32(0.0722) * out["indirect.B"])
+    return np.ascontiguousarray(y)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--runs", type=int, default=5)
+    p.add_argument("--workdir", default="/tmp/mixmc-bench-mask")
+    args = p.parse_args()
+    os.makedirs(args.workdir, exist_ok=True)
+    src = os.path.join(args.workdir, "input-4k.exr")
+    y = make_input(src)
+    results = {}
+    for label, extra in [("mixmc-mask (7x7, default)", []), ("mixmc-mask --window 5", ["--window", "5"]),
+                         ("mixmc-mask --paper", ["--paper"])]:
+        comp, wall = [], []
+        for _ in range(args.runs):
+            t = time.perf_counter()
+            r = subprocess.run([os.path.join(BIN, "mixmc-mask"), src, "-o", os.path.join(args.workdir, "mask.exr"),
+                                "--json"] + extra, check=True, capture_output=True, text=True)
+            wall.append(time.perf_counter() - t)
+            comp.append(json.loads(r.stdout)["compute_seconds"])
+        results[label] = (statistics.median(comp), statistics.median(wall))
+    cv = []
+    for _ in range(args.runs):
+        t = time.perf_counter()
+        d = cv2.absdiff(y, cv2.medianBlur(y, 5))
+        cv.append(time.perf_counter() - t)
+    assert d.shape == y.shape
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
+          f"OpenCV {cv2.__version__} with {cv2.getNumThreads()} threads; {W}x{H}; median of {args.runs} runs")
+    print("| what | compute s | whole process s (read EXR, mask, write EXR) |")
+    print("|---|---|---|")
+    for label, (c, w) in results.items():
+        print(f"| {label} | {c:.3f} | {w:.3f} |")
+    print(f"| OpenCV medianBlur 5x5 + absdiff (float32) | {statistics.median(cv):.3f} | - |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

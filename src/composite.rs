@@ -32,8 +32,15 @@ pub fn complex_fraction(alpha: &[f32]) -> f64 {
 }
 
 /// Eq. (2) per pixel: `d + i_omc·(1 − α) + i_mcmc`.
-pub fn equation2(d: &[[f32; 3]], i_omc: &[[f32; 3]], alpha: &[f32], i_mcmc: &[[f32; 3]]) -> Vec<[f32; 3]> {
-    (0..d.len()).map(|p| std::array::from_fn(|c| d[p][c] + i_omc[p][c] * (1.0 - alpha[p]) + i_mcmc[p][c])).collect()
+pub fn equation2(
+    d: &[[f32; 3]],
+    i_omc: &[[f32; 3]],
+    alpha: &[f32],
+    i_mcmc: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    (0..d.len())
+        .map(|p| std::array::from_fn(|c| d[p][c] + i_omc[p][c] * (1.0 - alpha[p]) + i_mcmc[p][c]))
+        .collect()
 }
 
 /// Pixels whose 3×3 neighbourhood (clipped at the image border) holds both complex and simple
@@ -99,14 +106,31 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
             ));
         }
     }
-    let d = omc.image.require_rgb(["direct.R", "direct.G", "direct.B"]).map_err(|e| e.with_file(omc.path))?;
-    let i_omc = omc.image.require_rgb(["indirect.R", "indirect.G", "indirect.B"]).map_err(|e| e.with_file(omc.path))?;
-    let i_mcmc = mcmc.image.require_rgb(RGB).map_err(|e| e.with_file(mcmc.path))?;
-    let alpha = mask.image.require("alpha").map_err(|e| e.with_file(mask.path))?;
+    let d = omc
+        .image
+        .require_rgb(["direct.R", "direct.G", "direct.B"])
+        .map_err(|e| e.with_file(omc.path))?;
+    let i_omc = omc
+        .image
+        .require_rgb(["indirect.R", "indirect.G", "indirect.B"])
+        .map_err(|e| e.with_file(omc.path))?;
+    let i_mcmc = mcmc
+        .image
+        .require_rgb(RGB)
+        .map_err(|e| e.with_file(mcmc.path))?;
+    let alpha = mask
+        .image
+        .require("alpha")
+        .map_err(|e| e.with_file(mask.path))?;
     if let Some(p) = alpha.iter().position(|a| !(0.0..=1.0).contains(a)) {
         return Err(Error::in_file(
             mask.path,
-            format!("alpha {} at pixel ({}, {}) is outside [0, 1]", alpha[p], p % w, p / w),
+            format!(
+                "alpha {} at pixel ({}, {}) is outside [0, 1]",
+                alpha[p],
+                p % w,
+                p / w
+            ),
         ));
     }
 
@@ -116,8 +140,15 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
     let mut warn = |path: &Path, msg: String| warnings.push((path.display().to_string(), msg));
     let given_hash = alpha_hash(w, h, alpha);
     let mcmc_hash = mcmc.image.text_attr(MASK_HASH_ATTR);
-    let mcmc_mask = mcmc.image.text_attr(MASK_PATH_ATTR).unwrap_or_else(|| "(unnamed)".into());
-    let alpha_used: Vec<f32> = if switched { vec![1.0; w * h] } else { alpha.to_vec() };
+    let mcmc_mask = mcmc
+        .image
+        .text_attr(MASK_PATH_ATTR)
+        .unwrap_or_else(|| "(unnamed)".into());
+    let alpha_used: Vec<f32> = if switched {
+        vec![1.0; w * h]
+    } else {
+        alpha.to_vec()
+    };
     if switched {
         // α ≡ 1 is what an unmasked MMLT renders; a mask that already is all 1 (the mask tool
         // switched) is the same thing.
@@ -136,7 +167,10 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
         match mcmc_hash {
             None => warn(
                 mcmc.path,
-                format!("warning: the header names no mask ({MASK_HASH_ATTR}); eq. (2) assumes it was rendered with {}", mask.path.display()),
+                format!(
+                    "warning: the header names no mask ({MASK_HASH_ATTR}); eq. (2) assumes it was rendered with {}",
+                    mask.path.display()
+                ),
             ),
             Some(hash) if hash != given_hash => warn(
                 mcmc.path,
@@ -148,17 +182,27 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
             Some(_) => {}
         }
     }
-    let (omc_scene, mcmc_scene) = (omc.image.text_attr("mixmc.scene"), mcmc.image.text_attr("mixmc.scene"));
+    let (omc_scene, mcmc_scene) = (
+        omc.image.text_attr("mixmc.scene"),
+        mcmc.image.text_attr("mixmc.scene"),
+    );
     if let (Some(a), Some(b)) = (&omc_scene, &mcmc_scene)
         && a != b
     {
-        warn(mcmc.path, format!("warning: rendered from scene {b}, but the OMC image from {a}"));
+        warn(
+            mcmc.path,
+            format!("warning: rendered from scene {b}, but the OMC image from {a}"),
+        );
     }
 
     let mixed = equation2(&d, &i_omc, &alpha_used, &i_mcmc);
     let borders = mask_borders(&alpha_used, w, h);
     let border_pixels = borders.iter().filter(|b| **b).count();
-    let rgb = if opts.fxaa && border_pixels > 0 { fxaa(&mixed, w, h, &borders) } else { mixed };
+    let rgb = if opts.fxaa && border_pixels > 0 {
+        fxaa(&mixed, w, h, &borders)
+    } else {
+        mixed
+    };
 
     let mut image = ExrImage::new(w, h);
     image.add_rgb("", RGB, &rgb);
@@ -174,9 +218,18 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
     image.set_float("mixmc.switch", opts.switch);
     image.set_text("mixmc.switched", if switched { "true" } else { "false" });
     image.set_text("mixmc.fxaa", if opts.fxaa { "true" } else { "false" });
-    image.set_float("mixmc.fxaa_pixels", if opts.fxaa { border_pixels as f64 } else { 0.0 });
+    image.set_float(
+        "mixmc.fxaa_pixels",
+        if opts.fxaa { border_pixels as f64 } else { 0.0 },
+    );
     image.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
-    Ok(Composite { image, complex_fraction: fraction, switched, border_pixels, warnings })
+    Ok(Composite {
+        image,
+        complex_fraction: fraction,
+        switched,
+        border_pixels,
+        warnings,
+    })
 }
 
 #[cfg(test)]
@@ -189,7 +242,9 @@ mod tests {
         let mut alpha = vec![0.1; 12];
         alpha[5] = 1.0;
         let b = mask_borders(&alpha, 4, 3);
-        let expect = [true, true, true, false, true, true, true, false, true, true, true, false];
+        let expect = [
+            true, true, true, false, true, true, true, false, true, true, true, false,
+        ];
         assert_eq!(b, expect);
         assert!(mask_borders(&[0.1; 12], 4, 3).iter().all(|b| !b));
         assert!((complex_fraction(&alpha) - 1.0 / 12.0).abs() < 1e-12);

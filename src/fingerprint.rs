@@ -13,14 +13,18 @@ const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
 /// 64-bit FNV-1a: simple enough for any other tool to reimplement, and a mask's exact bits decide
 /// the estimate, so no tolerance is wanted.
 pub fn fnv1a64(bytes: impl IntoIterator<Item = u8>) -> u64 {
-    bytes.into_iter().fold(FNV_OFFSET, |h, b| (h ^ b as u64).wrapping_mul(FNV_PRIME))
+    bytes
+        .into_iter()
+        .fold(FNV_OFFSET, |h, b| (h ^ b as u64).wrapping_mul(FNV_PRIME))
 }
 
 /// `fnv1a64:` and 16 hex digits of FNV-1a over the width and height (u32, little-endian) and then
 /// the `alpha` channel's f32 bit patterns (little-endian, row-major): the size is included so a
 /// constant mask of another resolution does not match.
 pub fn alpha_hash(width: usize, height: usize, alpha: &[f32]) -> String {
-    let size = [width as u32, height as u32].into_iter().flat_map(u32::to_le_bytes);
+    let size = [width as u32, height as u32]
+        .into_iter()
+        .flat_map(u32::to_le_bytes);
     let bits = alpha.iter().flat_map(|a| a.to_bits().to_le_bytes());
     format!("fnv1a64:{:016x}", fnv1a64(size.chain(bits)))
 }

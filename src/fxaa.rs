@@ -32,7 +32,11 @@ const STEPS: [f32; 12] = [1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0,
 /// Perceptual luma used for edge detection: the paper's LDR curve on luminance.
 pub fn luma(c: [f32; 3]) -> f32 {
     let y = luminance(Rgb::from_array(c));
-    if y.is_finite() { y.clamp(0.0, 1.0).powf(1.0 / 2.2) } else { 0.0 }
+    if y.is_finite() {
+        y.clamp(0.0, 1.0).powf(1.0 / 2.2)
+    } else {
+        0.0
+    }
 }
 
 /// An image view with clamp-to-edge bilinear lookups; positions are in pixels, with the centre
@@ -71,19 +75,20 @@ impl Texture<'_> {
     }
 
     fn luma_bilinear(&self, px: f32, py: f32) -> f32 {
-        self.taps(px, py).iter().map(|&(i, w)| w * self.luma[i]).sum()
+        self.taps(px, py)
+            .iter()
+            .map(|&(i, w)| w * self.luma[i])
+            .sum()
     }
 
     fn rgb_bilinear(&self, px: f32, py: f32) -> [f32; 3] {
-        let mut out = [0.0f32; 3];
-        for (i, w) in self.taps(px, py) {
-            if w != 0.0 {
-                for c in 0..3 {
-                    out[c] += w * self.rgb[i][c];
-                }
-            }
-        }
-        out
+        let taps = self.taps(px, py);
+        std::array::from_fn(|c| {
+            taps.iter()
+                .filter(|(_, w)| *w != 0.0)
+                .map(|&(i, w)| w * self.rgb[i][c])
+                .sum()
+        })
     }
 }
 
@@ -92,8 +97,21 @@ impl Texture<'_> {
 pub fn fxaa(rgb: &[[f32; 3]], width: usize, height: usize, apply: &[bool]) -> Vec<[f32; 3]> {
     assert_eq!(rgb.len(), width * height, "FXAA: image size");
     assert_eq!(apply.len(), rgb.len(), "FXAA: selection size");
-    let tex = Texture { rgb, luma: rgb.iter().map(|c| luma(*c)).collect(), width, height };
-    (0..rgb.len()).map(|i| if apply[i] { fxaa_pixel(&tex, i % width, i / width) } else { rgb[i] }).collect()
+    let tex = Texture {
+        rgb,
+        luma: rgb.iter().map(|c| luma(*c)).collect(),
+        width,
+        height,
+    };
+    (0..rgb.len())
+        .map(|i| {
+            if apply[i] {
+                fxaa_pixel(&tex, i % width, i / width)
+            } else {
+                rgb[i]
+            }
+        })
+        .collect()
 }
 
 /// One pixel of FXAA 3.11 quality (`FxaaPixelShader`), with the same variable names where they
@@ -149,7 +167,11 @@ fn fxaa_pixel(tex: &Texture, x: usize, y: usize) -> [f32; 3] {
     let pair_n = gradient_n.abs() >= gradient_s.abs();
     let gradient = gradient_n.abs().max(gradient_s.abs());
     let length_sign = if pair_n { -1.0 } else { 1.0 };
-    let luma_nn = if pair_n { luma_n + luma_m } else { luma_s + luma_m };
+    let luma_nn = if pair_n {
+        luma_n + luma_m
+    } else {
+        luma_s + luma_m
+    };
 
     // 3. End-of-edge search, half a pixel towards the edge, along it in both directions.
     let mut pos_b = pos_m;
@@ -190,13 +212,20 @@ fn fxaa_pixel(tex: &Texture, x: usize, y: usize) -> [f32; 3] {
 
     // 4. Offset across the edge from the position along the span; a span end whose luma
     // variation has the same sign as the centre's is not where the edge ends.
-    let (dst_n, dst_p) =
-        if horz_span { (pos_m.0 - pos_n.0, pos_p.0 - pos_m.0) } else { (pos_m.1 - pos_n.1, pos_p.1 - pos_m.1) };
+    let (dst_n, dst_p) = if horz_span {
+        (pos_m.0 - pos_n.0, pos_p.0 - pos_m.0)
+    } else {
+        (pos_m.1 - pos_n.1, pos_p.1 - pos_m.1)
+    };
     let good_span_n = (luma_end_n < 0.0) != luma_m_lt_zero;
     let good_span_p = (luma_end_p < 0.0) != luma_m_lt_zero;
     let direction_n = dst_n < dst_p;
     let dst = dst_n.min(dst_p);
-    let good_span = if direction_n { good_span_n } else { good_span_p };
+    let good_span = if direction_n {
+        good_span_n
+    } else {
+        good_span_p
+    };
     let pixel_offset = 0.5 - dst / (dst_n + dst_p);
     let pixel_offset_good = if good_span { pixel_offset } else { 0.0 };
     let offset = pixel_offset_good.max(subpix_h) * length_sign;
@@ -233,7 +262,10 @@ mod tests {
     }
 
     fn error(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-        a.iter().zip(b).map(|(p, q)| (0..3).map(|c| ((p[c] - q[c]) as f64).powi(2)).sum::<f64>()).sum()
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| (0..3).map(|c| ((p[c] - q[c]) as f64).powi(2)).sum::<f64>())
+            .sum()
     }
 
     #[test]

@@ -14,23 +14,46 @@ use std::path::Path;
 
 /// Channels that are deterministic per pixel (DESIGN §3).
 pub fn is_gbuffer(channel: &str) -> bool {
-    channel == "Z" || channel == "matid" || channel.starts_with("N.") || channel.starts_with("albedo.")
+    channel == "Z"
+        || channel == "matid"
+        || channel.starts_with("N.")
+        || channel.starts_with("albedo.")
 }
 
 /// Header attributes that may differ between independent passes: their sample counts, seeds and
 /// timings, and where the mask file lay (its content hash must still match).
-const PER_PASS_ATTRS: [&str; 7] =
-    ["mixmc.seed", "mixmc.spp", "mixmc.mutations", "mixmc.seconds", "mixmc.partial", "mixmc.mask", "mixmc.version"];
+const PER_PASS_ATTRS: [&str; 7] = [
+    "mixmc.seed",
+    "mixmc.spp",
+    "mixmc.mutations",
+    "mixmc.seconds",
+    "mixmc.partial",
+    "mixmc.mask",
+    "mixmc.version",
+];
 
 /// The attribute that counts a file's samples: MMLT images are means over mutations.
 pub fn weight_attr(tool: &str) -> &'static str {
-    if tool == "mixmc-mmlt" { "mixmc.mutations" } else { "mixmc.spp" }
+    if tool == "mixmc-mmlt" {
+        "mixmc.mutations"
+    } else {
+        "mixmc.spp"
+    }
 }
 
 /// The seeds a file's passes used: `mixmc.seed` is a number, or a list `1,2,…` in a merged file.
 fn seeds(img: &ExrImage) -> Option<Vec<String>> {
     let text = img.text_attr("mixmc.seed")?;
-    Some(text.split(',').map(|s| s.trim().parse::<f64>().map(|v| v.to_string()).unwrap_or(s.trim().to_string())).collect())
+    Some(
+        text.split(',')
+            .map(|s| {
+                s.trim()
+                    .parse::<f64>()
+                    .map(|v| v.to_string())
+                    .unwrap_or(s.trim().to_string())
+            })
+            .collect(),
+    )
 }
 
 /// Merge images read from `paths` (same order); errors name the file that does not fit the first.
@@ -42,7 +65,10 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         return Err(Error::new("give at least two files to merge"));
     }
     let tool = first.text_attr("mixmc.tool").ok_or_else(|| {
-        Error::in_file(first_path, "no mixmc.tool in the header: cannot tell how its samples are counted")
+        Error::in_file(
+            first_path,
+            "no mixmc.tool in the header: cannot tell how its samples are counted",
+        )
     })?;
     let weight_key = weight_attr(&tool);
     let names: BTreeSet<&str> = first.channels.iter().map(|(n, _)| n.as_str()).collect();
@@ -63,7 +89,11 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         let these: BTreeSet<&str> = img.channels.iter().map(|(n, _)| n.as_str()).collect();
         if these != names {
             let diff: Vec<&str> = these.symmetric_difference(&names).copied().collect();
-            return fail(format!("channel set differs from {} (in one only: {})", first_path.display(), diff.join(", ")));
+            return fail(format!(
+                "channel set differs from {} (in one only: {})",
+                first_path.display(),
+                diff.join(", ")
+            ));
         }
         for key in first.attributes.keys().chain(img.attributes.keys()) {
             if key.starts_with("mixmc.") && !PER_PASS_ATTRS.contains(&key.as_str()) {
@@ -83,17 +113,27 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
                 }
             }
         }
-        let w = img.float_attr(weight_key).filter(|w| w.is_finite() && *w > 0.0);
+        let w = img
+            .float_attr(weight_key)
+            .filter(|w| w.is_finite() && *w > 0.0);
         let Some(w) = w else {
-            return fail(format!("no positive {weight_key} in the header: cannot weight its samples"));
+            return fail(format!(
+                "no positive {weight_key} in the header: cannot weight its samples"
+            ));
         };
         weights.push(w);
         let Some(file_seeds) = seeds(img) else {
-            return fail("no mixmc.seed in the header: cannot tell whether its passes are independent".into());
+            return fail(
+                "no mixmc.seed in the header: cannot tell whether its passes are independent"
+                    .into(),
+            );
         };
         for s in file_seeds {
             if let Some((_, other)) = seen_seeds.iter().find(|(t, _)| *t == s) {
-                return fail(format!("seed {s} was also used by {}: same seed, not independent passes", other.display()));
+                return fail(format!(
+                    "seed {s} was also used by {}: same seed, not independent passes",
+                    other.display()
+                ));
             }
             seen_seeds.push((s, path));
         }
@@ -105,7 +145,11 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         let merged = if is_gbuffer(name) {
             for (path, img) in rest {
                 let other = img.require(name)?;
-                if let Some(p) = data.iter().zip(other).position(|(a, b)| a.to_bits() != b.to_bits()) {
+                if let Some(p) = data
+                    .iter()
+                    .zip(other)
+                    .position(|(a, b)| a.to_bits() != b.to_bits())
+                {
                     return Err(Error::in_file(
                         path,
                         format!(
@@ -119,10 +163,17 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
             }
             data.clone()
         } else {
-            let channels: Vec<&[f32]> = inputs.iter().map(|(_, img)| img.require(name)).collect::<Result<_>>()?;
+            let channels: Vec<&[f32]> = inputs
+                .iter()
+                .map(|(_, img)| img.require(name))
+                .collect::<Result<_>>()?;
             (0..data.len())
                 .map(|p| {
-                    let sum: f64 = channels.iter().zip(&weights).map(|(c, w)| w * c[p] as f64).sum();
+                    let sum: f64 = channels
+                        .iter()
+                        .zip(&weights)
+                        .map(|(c, w)| w * c[p] as f64)
+                        .sum();
                     (sum / total) as f32
                 })
                 .collect()
@@ -131,9 +182,24 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
     }
     out.attributes = first.attributes.clone();
     out.set_float(weight_key, total);
-    out.set_text("mixmc.seed", seen_seeds.iter().map(|(s, _)| s.as_str()).collect::<Vec<_>>().join(","));
-    out.set_float("mixmc.seconds", inputs.iter().filter_map(|(_, i)| i.float_attr("mixmc.seconds")).sum());
-    let partial = inputs.iter().any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));
+    out.set_text(
+        "mixmc.seed",
+        seen_seeds
+            .iter()
+            .map(|(s, _)| s.as_str())
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    out.set_float(
+        "mixmc.seconds",
+        inputs
+            .iter()
+            .filter_map(|(_, i)| i.float_attr("mixmc.seconds"))
+            .sum(),
+    );
+    let partial = inputs
+        .iter()
+        .any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));
     out.set_text("mixmc.partial", if partial { "true" } else { "false" });
     Ok(out)
 }

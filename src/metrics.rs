@@ -17,7 +17,11 @@ pub fn flip_pixels_per_degree() -> f32 {
 
 /// The paper's LDR value: `255 · clamp(x, 0, 1)^(1/2.2)`; NaN counts as black.
 pub fn ldr(x: f32) -> f64 {
-    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) as f64 };
+    let x = if x.is_nan() {
+        0.0
+    } else {
+        x.clamp(0.0, 1.0) as f64
+    };
     255.0 * x.powf(1.0 / 2.2)
 }
 
@@ -42,7 +46,13 @@ impl Metric {
     }
 
     /// Per-pixel error map of this metric (the mean of the map is the metric's value).
-    pub fn error_map(self, image: &[[f32; 3]], reference: &[[f32; 3]], width: usize, height: usize) -> Vec<f64> {
+    pub fn error_map(
+        self,
+        image: &[[f32; 3]],
+        reference: &[[f32; 3]],
+        width: usize,
+        height: usize,
+    ) -> Vec<f64> {
         match self {
             Metric::Mse => per_pixel(image, reference, |a, b| (ldr(a) - ldr(b)).powi(2)),
             Metric::Relmse => per_pixel(image, reference, |a, b| {
@@ -56,16 +66,29 @@ impl Metric {
 
 /// Per-pixel mean over the three channels of `f(image, reference)`.
 fn per_pixel(image: &[[f32; 3]], reference: &[[f32; 3]], f: impl Fn(f32, f32) -> f64) -> Vec<f64> {
-    image.iter().zip(reference).map(|(a, b)| (0..3).map(|c| f(a[c], b[c])).sum::<f64>() / 3.0).collect()
+    image
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (0..3).map(|c| f(a[c], b[c])).sum::<f64>() / 3.0)
+        .collect()
 }
 
 fn mean(v: &[f64]) -> f64 {
-    if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 }
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
 }
 
 /// LDR-FLIP error per pixel between the sRGB 8-bit encodings of the clamped images; the
 /// quantisation is the one of our PNG previews, so FLIP judges what a viewer of them sees.
-pub fn flip_map(image: &[[f32; 3]], reference: &[[f32; 3]], width: usize, height: usize) -> Vec<f64> {
+pub fn flip_map(
+    image: &[[f32; 3]],
+    reference: &[[f32; 3]],
+    width: usize,
+    height: usize,
+) -> Vec<f64> {
     let encode = |rgb: &[[f32; 3]]| {
         let bytes: Vec<u8> = rgb.iter().flat_map(|p| p.map(srgb8)).collect();
         nv_flip::FlipImageRgb8::with_data(width as u32, height as u32, &bytes)
@@ -95,7 +118,11 @@ impl Scores {
 /// MSE, relMSE and FLIP of `image` against `reference` (same size, row-major RGB).
 pub fn scores(image: &[[f32; 3]], reference: &[[f32; 3]], width: usize, height: usize) -> Scores {
     let m = |metric: Metric| mean(&metric.error_map(image, reference, width, height));
-    Scores { mse: m(Metric::Mse), relmse: m(Metric::Relmse), flip: m(Metric::Flip) }
+    Scores {
+        mse: m(Metric::Mse),
+        relmse: m(Metric::Relmse),
+        flip: m(Metric::Flip),
+    }
 }
 
 /// A rectangle of pixels: `x,y,w,h`, top-left origin.
@@ -116,7 +143,12 @@ impl std::str::FromStr for Region {
             .collect::<std::result::Result<_, _>>()
             .map_err(|_| format!("`{s}` is not x,y,w,h (four non-negative integers)"))?;
         match v[..] {
-            [x, y, width, height] if width > 0 && height > 0 => Ok(Region { x, y, width, height }),
+            [x, y, width, height] if width > 0 && height > 0 => Ok(Region {
+                x,
+                y,
+                width,
+                height,
+            }),
             [_, _, _, _] => Err(format!("`{s}`: width and height must be at least 1")),
             _ => Err(format!("`{s}` is not x,y,w,h (four non-negative integers)")),
         }
@@ -133,7 +165,11 @@ impl Region {
             )));
         }
         Ok((self.y..self.y + self.height)
-            .flat_map(|y| rgb[y * width + self.x..y * width + self.x + self.width].iter().copied())
+            .flat_map(|y| {
+                rgb[y * width + self.x..y * width + self.x + self.width]
+                    .iter()
+                    .copied()
+            })
             .collect())
     }
 }
@@ -143,7 +179,11 @@ pub fn heatmap(map: &[f64], scale: f64) -> Vec<u8> {
     let lut = nv_flip::magma_lut().to_vec();
     map.iter()
         .flat_map(|v| {
-            let t = if scale > 0.0 && v.is_finite() { (v / scale).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if scale > 0.0 && v.is_finite() {
+                (v / scale).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let i = (t * 255.0).round() as usize * 3;
             [lut[i], lut[i + 1], lut[i + 2]]
         })
@@ -173,7 +213,10 @@ mod tests {
         let r: Region = "1,0,2,2".parse().unwrap();
         let img: Vec<[f32; 3]> = (0..12).map(|i| [i as f32; 3]).collect();
         let cut = r.cut(&img, 4, 3).unwrap();
-        assert_eq!(cut.iter().map(|p| p[0]).collect::<Vec<_>>(), [1.0, 2.0, 5.0, 6.0]);
+        assert_eq!(
+            cut.iter().map(|p| p[0]).collect::<Vec<_>>(),
+            [1.0, 2.0, 5.0, 6.0]
+        );
         assert!(r.cut(&img, 2, 6).is_err());
         assert!("1,2,3".parse::<Region>().is_err());
         assert!("0,0,0,4".parse::<Region>().is_err());

@@ -43,16 +43,31 @@ fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
         if !(0.0..=1.0).contains(&args.switch) {
-            return Err(Error::new(format!("--switch {} must lie in [0, 1]", args.switch)));
+            return Err(Error::new(format!(
+                "--switch {} must lie in [0, 1]",
+                args.switch
+            )));
         }
         let omc = ExrImage::read(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
         let result = composite(
-            Input { path: &args.omc, image: &omc },
-            Input { path: &args.mask, image: &mask },
-            Input { path: &args.mcmc, image: &mcmc },
-            Options { fxaa: !args.no_fxaa, switch: args.switch },
+            Input {
+                path: &args.omc,
+                image: &omc,
+            },
+            Input {
+                path: &args.mask,
+                image: &mask,
+            },
+            Input {
+                path: &args.mcmc,
+                image: &mcmc,
+            },
+            Options {
+                fxaa: !args.no_fxaa,
+                switch: args.switch,
+            },
         )?;
         for (file, msg) in &result.warnings {
             eprintln!("{TOOL}: {file}: {msg}");
@@ -60,7 +75,12 @@ fn main() -> ExitCode {
         let img = &result.image;
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
-            write_png(png, img.width, img.height, &img.require_rgb(["R", "G", "B"])?)?;
+            write_png(
+                png,
+                img.width,
+                img.height,
+                &img.require_rgb(["R", "G", "B"])?,
+            )?;
         }
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)

@@ -48,6 +48,9 @@ struct Args {
 fn main() -> ExitCode {
     main_with("mixmc-diff", || {
         let args = Args::parse();
+        if args.fail.is_nan() {
+            return Err(Error::new("--fail must be a number"));
+        }
         let image = ExrImage::read(&args.image)?;
         let reference = ExrImage::read(&args.reference)?;
         if (image.width, image.height) != (reference.width, reference.height) {
@@ -63,8 +66,12 @@ fn main() -> ExitCode {
                 ),
             ));
         }
-        let mut a = image.require_rgb(["R", "G", "B"]).map_err(|e| e.with_file(&args.image))?;
-        let mut b = reference.require_rgb(["R", "G", "B"]).map_err(|e| e.with_file(&args.reference))?;
+        let mut a = image
+            .require_rgb(["R", "G", "B"])
+            .map_err(|e| e.with_file(&args.image))?;
+        let mut b = reference
+            .require_rgb(["R", "G", "B"])
+            .map_err(|e| e.with_file(&args.reference))?;
         let (mut w, mut h) = (image.width, image.height);
         if let Some(region) = args.crop {
             a = region.cut(&a, w, h)?;
@@ -74,12 +81,16 @@ fn main() -> ExitCode {
         let s = scores(&a, &b, w, h);
         let value = s.get(args.metric);
         // NaN is never "within" a threshold.
-        let differs = !(value <= args.fail);
+        let differs = value.is_nan() || value > args.fail;
         if let Some(path) = &args.heatmap {
             let map = args.metric.error_map(&a, &b, w, h);
             let scale = match args.metric {
                 Metric::Flip => 1.0,
-                _ => map.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max),
+                _ => map
+                    .iter()
+                    .copied()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0, f64::max),
             };
             write_png_rgb8(path, w, h, heatmap(&map, scale))?;
         }
@@ -108,8 +119,16 @@ fn main() -> ExitCode {
             );
             let verdict = if differs { "differs" } else { "same" };
             let op = if differs { ">" } else { "<=" };
-            println!("{verdict}: {} {value:.6} {op} --fail {}", args.metric.name(), args.fail);
+            println!(
+                "{verdict}: {} {value:.6} {op} --fail {}",
+                args.metric.name(),
+                args.fail
+            );
         }
-        Ok(if differs { ExitCode::from(1) } else { ExitCode::SUCCESS })
+        Ok(if differs {
+            ExitCode::from(1)
+        } else {
+            ExitCode::SUCCESS
+        })
     })
 }

@@ -1,0 +1,261 @@
+//! The paper's eq. (2), `Color = D_omc + I_omc·(1 − α) + I_mcmcα`, followed by FXAA on the mask's
+//! borders, and the MCMC-only switch (DESIGN §1, §5).
+//!
+//! `I_mcmcα` already estimates `α·I` (the chain's target was `α·I`), so it is added as it is; the
+//! OMC part keeps the complementary share `1 − α`. Where the mask changes, the two estimates meet
+//! along a seam of different noise, which FXAA softens; nothing else is filtered.
+
+use crate::error::{Error, Result};
+use crate::exrio::ExrImage;
+use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
+use crate::fxaa::fxaa;
+use std::path::Path;
+
+/// Default `--switch`: above this fraction of complex pixels the mix is worse than MCMC alone
+/// (the paper's ~35%).
+pub const DEFAULT_SWITCH: f64 = 0.35;
+
+const RGB: [&str; 3] = ["R", "G", "B"];
+
+/// A pixel is complex (rendered by MCMC) where its binarised mask value is 1; the mask tool writes
+/// only ε and 1, and 0.5 is the threshold of its binarisation step, so other masks classify alike.
+pub fn is_complex(alpha: f32) -> bool {
+    alpha > 0.5
+}
+
+/// Fraction of complex pixels.
+pub fn complex_fraction(alpha: &[f32]) -> f64 {
+    if alpha.is_empty() {
+        return 0.0;
+    }
+    alpha.iter().filter(|a| is_complex(**a)).count() as f64 / alpha.len() as f64
+}
+
+/// Eq. (2) per pixel: `d + i_omc·(1 − α) + i_mcmc`.
+pub fn equation2(
+    d: &[[f32; 3]],
+    i_omc: &[[f32; 3]],
+    alpha: &[f32],
+    i_mcmc: &[[f32; 3]],
+) -> Vec<[f32; 3]> {
+    (0..d.len())
+        .map(|p| std::array::from_fn(|c| d[p][c] + i_omc[p][c] * (1.0 - alpha[p]) + i_mcmc[p][c]))
+        .collect()
+}
+
+/// Pixels whose 3×3 neighbourhood (clipped at the image border) holds both complex and simple
+/// pixels: the only ones FXAA may change.
+pub fn mask_borders(alpha: &[f32], width: usize, height: usize) -> Vec<bool> {
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let mut seen = [false; 2];
+            for ny in y.saturating_sub(1)..(y + 2).min(height) {
+                for nx in x.saturating_sub(1)..(x + 2).min(width) {
+                    seen[is_complex(alpha[ny * width + nx]) as usize] = true;
+                }
+            }
+            seen[0] && seen[1]
+        })
+        .collect()
+}
+
+/// Compositor settings.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Run FXAA on the mask's borders.
+    pub fxaa: bool,
+    /// Switch to MCMC only when the complex fraction exceeds this.
+    pub switch: f64,
+}
+
+/// An input image with the path it came from, for error messages and the output header.
+#[derive(Clone, Copy)]
+pub struct Input<'a> {
+    pub path: &'a Path,
+    pub image: &'a ExrImage,
+}
+
+/// The composited image and what happened on the way.
+pub struct Composite {
+    /// `R,G,B` and the `mixmc.*` header.
+    pub image: ExrImage,
+    pub complex_fraction: f64,
+    /// True when the MCMC-only switch fired (α ≡ 1).
+    pub switched: bool,
+    /// Pixels FXAA was allowed to change.
+    pub border_pixels: usize,
+    /// Non-fatal problems, as `(file, message)`.
+    pub warnings: Vec<(String, String)>,
+}
+
+/// Combine `omc.exr` (`direct.*`, `indirect.*`), `mask.exr` (`alpha`) and `mcmc.exr` (`R,G,B` =
+/// `I_mcmcα`) by eq. (2), or by `D + I_mcmc` when the switch fires; then FXAA on the borders.
+pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<Composite> {
+    let (w, h) = (omc.image.width, omc.image.height);
+    for other in [mask, mcmc] {
+        if (other.image.width, other.image.height) != (w, h) {
+            return Err(Error::in_file(
+                other.path,
+                format!(
+                    "image is {}×{} but the OMC image {} is {w}×{h}",
+                    other.image.width,
+                    other.image.height,
+                    omc.path.display()
+                ),
+            ));
+        }
+    }
+    let d = omc
+        .image
+        .require_rgb(["direct.R", "direct.G", "direct.B"])
+        .map_err(|e| e.with_file(omc.path))?;
+    let i_omc = omc
+        .image
+        .require_rgb(["indirect.R", "indirect.G", "indirect.B"])
+        .map_err(|e| e.with_file(omc.path))?;
+    let i_mcmc = mcmc
+        .image
+        .require_rgb(RGB)
+        .map_err(|e| e.with_file(mcmc.path))?;
+    let alpha = mask
+        .image
+        .require("alpha")
+        .map_err(|e| e.with_file(mask.path))?;
+    if let Some(p) = alpha.iter().position(|a| !(0.0..=1.0).contains(a)) {
+        return Err(Error::in_file(
+            mask.path,
+            format!(
+                "alpha {} at pixel ({}, {}) is outside [0, 1]",
+                alpha[p],
+                p % w,
+                p / w
+            ),
+        ));
+    }
+
+    let fraction = complex_fraction(alpha);
+    let switched = fraction > opts.switch;
+    let mut warnings = Vec::new();
+    let mut warn = |path: &Path, msg: String| warnings.push((path.display().to_string(), msg));
+    let given_hash = alpha_hash(w, h, alpha);
+    let mcmc_hash = mcmc.image.text_attr(MASK_HASH_ATTR);
+    let mcmc_mask = mcmc
+        .image
+        .text_attr(MASK_PATH_ATTR)
+        .unwrap_or_else(|| "(unnamed)".into());
+    let alpha_used: Vec<f32> = if switched {
+        vec![1.0; w * h]
+    } else {
+        alpha.to_vec()
+    };
+    if switched {
+        // α ≡ 1 is what an unmasked MMLT renders; a mask that already is all 1 (the mask tool
+        // switched) is the same thing.
+        if let Some(hash) = mcmc_hash.filter(|hash| *hash != alpha_hash(w, h, &alpha_used)) {
+            warn(
+                mcmc.path,
+                format!(
+                    "warning: {:.1}% complex pixels > --switch {:.1}% selects MCMC only, which needs an MCMC \
+                     image rendered without a mask, but this one was rendered with mask {mcmc_mask} ({hash})",
+                    100.0 * fraction,
+                    100.0 * opts.switch
+                ),
+            );
+        }
+    } else {
+        match mcmc_hash {
+            None => warn(
+                mcmc.path,
+                format!(
+                    "warning: the header names no mask ({MASK_HASH_ATTR}); eq. (2) assumes it was rendered with {}",
+                    mask.path.display()
+                ),
+            ),
+            Some(hash) if hash != given_hash => warn(
+                mcmc.path,
+                format!(
+                    "warning: rendered with mask {mcmc_mask} ({hash}), not with {} ({given_hash})",
+                    mask.path.display()
+                ),
+            ),
+            Some(_) => {}
+        }
+    }
+    let (omc_scene, mcmc_scene) = (
+        omc.image.text_attr("mixmc.scene"),
+        mcmc.image.text_attr("mixmc.scene"),
+    );
+    if let (Some(a), Some(b)) = (&omc_scene, &mcmc_scene)
+        && a != b
+    {
+        warn(
+            mcmc.path,
+            format!("warning: rendered from scene {b}, but the OMC image from {a}"),
+        );
+    }
+
+    let mixed = equation2(&d, &i_omc, &alpha_used, &i_mcmc);
+    let borders = mask_borders(&alpha_used, w, h);
+    let border_pixels = borders.iter().filter(|b| **b).count();
+    let rgb = if opts.fxaa && border_pixels > 0 {
+        fxaa(&mixed, w, h, &borders)
+    } else {
+        mixed
+    };
+
+    let mut image = ExrImage::new(w, h);
+    image.add_rgb("", RGB, &rgb);
+    image.set_text("mixmc.tool", "mixmc-composite");
+    if let Some(scene) = omc_scene {
+        image.set_text("mixmc.scene", scene);
+    }
+    image.set_text("mixmc.omc", omc.path.display().to_string());
+    image.set_text(MASK_PATH_ATTR, mask.path.display().to_string());
+    image.set_text(MASK_HASH_ATTR, given_hash);
+    image.set_text("mixmc.mcmc", mcmc.path.display().to_string());
+    image.set_float("mixmc.complex_fraction", fraction);
+    image.set_float("mixmc.switch", opts.switch);
+    image.set_text("mixmc.switched", if switched { "true" } else { "false" });
+    image.set_text("mixmc.fxaa", if opts.fxaa { "true" } else { "false" });
+    image.set_float(
+        "mixmc.fxaa_pixels",
+        if opts.fxaa { border_pixels as f64 } else { 0.0 },
+    );
+    image.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
+    Ok(Composite {
+        image,
+        complex_fraction: fraction,
+        switched,
+        border_pixels,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn borders_are_where_both_values_meet() {
+        // A 4×3 mask with one complex pixel at (1, 1): its 3×3 block is the border.
+        let mut alpha = vec![0.1; 12];
+        alpha[5] = 1.0;
+        let b = mask_borders(&alpha, 4, 3);
+        let expect = [
+            true, true, true, false, true, true, true, false, true, true, true, false,
+        ];
+        assert_eq!(b, expect);
+        assert!(mask_borders(&[0.1; 12], 4, 3).iter().all(|b| !b));
+        assert!((complex_fraction(&alpha) - 1.0 / 12.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn equation2_per_pixel() {
+        let d = [[1.0, 2.0, 3.0], [0.5, 0.5, 0.5]];
+        let i = [[4.0, 8.0, 16.0], [2.0, 2.0, 2.0]];
+        let m = [[0.25, 0.5, 1.0], [3.0, 3.0, 3.0]];
+        let out = equation2(&d, &i, &[0.5, 1.0], &m);
+        assert_eq!(out, vec![[3.25, 6.5, 12.0], [3.5, 3.5, 3.5]]);
+    }
+}

@@ -1,0 +1,205 @@
+//! Exact merge of independent passes of one render (DESIGN §3, §8).
+//!
+//! A file's estimate is the mean of its samples, so the merge of files with weights `n_i` (OMC:
+//! `mixmc.spp`; MMLT: `mixmc.mutations`) is `Σ n_i·x_i / Σ n_i`, computed in f64 — the same image
+//! as one render whose passes are the union of theirs. That holds only for independent passes of
+//! the same estimator, so everything else that defines the estimate must agree, and equal seeds
+//! (the same random numbers twice) are refused. G-buffer channels come from the pixel-centre ray,
+//! not from samples: they must be equal and are copied, never averaged.
+
+use crate::error::{Error, Result};
+use crate::exrio::{Attr, ExrImage};
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// Channels that are deterministic per pixel (DESIGN §3).
+pub fn is_gbuffer(channel: &str) -> bool {
+    channel == "Z"
+        || channel == "matid"
+        || channel.starts_with("N.")
+        || channel.starts_with("albedo.")
+}
+
+/// Header attributes that may differ between independent passes: their sample counts, seeds and
+/// timings, and where the mask file lay (its content hash must still match).
+const PER_PASS_ATTRS: [&str; 7] = [
+    "mixmc.seed",
+    "mixmc.spp",
+    "mixmc.mutations",
+    "mixmc.seconds",
+    "mixmc.partial",
+    "mixmc.mask",
+    "mixmc.version",
+];
+
+/// The attribute that counts a file's samples: MMLT images are means over mutations.
+pub fn weight_attr(tool: &str) -> &'static str {
+    if tool == "mixmc-mmlt" {
+        "mixmc.mutations"
+    } else {
+        "mixmc.spp"
+    }
+}
+
+/// The seeds a file's passes used: `mixmc.seed` is a number, or a list `1,2,…` in a merged file.
+fn seeds(img: &ExrImage) -> Option<Vec<String>> {
+    let text = img.text_attr("mixmc.seed")?;
+    Some(
+        text.split(',')
+            .map(|s| {
+                s.trim()
+                    .parse::<f64>()
+                    .map(|v| v.to_string())
+                    .unwrap_or(s.trim().to_string())
+            })
+            .collect(),
+    )
+}
+
+/// Merge images read from `paths` (same order); errors name the file that does not fit the first.
+pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
+    let [(first_path, first), rest @ ..] = inputs else {
+        return Err(Error::new("nothing to merge"));
+    };
+    if rest.is_empty() {
+        return Err(Error::new("give at least two files to merge"));
+    }
+    let tool = first.text_attr("mixmc.tool").ok_or_else(|| {
+        Error::in_file(
+            first_path,
+            "no mixmc.tool in the header: cannot tell how its samples are counted",
+        )
+    })?;
+    let weight_key = weight_attr(&tool);
+    let names: BTreeSet<&str> = first.channels.iter().map(|(n, _)| n.as_str()).collect();
+    let mut weights = Vec::with_capacity(inputs.len());
+    let mut seen_seeds: Vec<(String, &Path)> = Vec::new();
+    for (path, img) in inputs {
+        let fail = |msg: String| Err(Error::in_file(path, msg));
+        if (img.width, img.height) != (first.width, first.height) {
+            return fail(format!(
+                "resolution {}×{} differs from {}×{} of {}",
+                img.width,
+                img.height,
+                first.width,
+                first.height,
+                first_path.display()
+            ));
+        }
+        let these: BTreeSet<&str> = img.channels.iter().map(|(n, _)| n.as_str()).collect();
+        if these != names {
+            let diff: Vec<&str> = these.symmetric_difference(&names).copied().collect();
+            return fail(format!(
+                "channel set differs from {} (in one only: {})",
+                first_path.display(),
+                diff.join(", ")
+            ));
+        }
+        for key in first.attributes.keys().chain(img.attributes.keys()) {
+            if key.starts_with("mixmc.") && !PER_PASS_ATTRS.contains(&key.as_str()) {
+                let (a, b) = (first.attributes.get(key), img.attributes.get(key));
+                if a != b {
+                    let show = |v: Option<&Attr>| match v {
+                        Some(Attr::Text(t)) => format!("`{t}`"),
+                        Some(Attr::Float(f)) => f.to_string(),
+                        None => "(none)".to_string(),
+                    };
+                    return fail(format!(
+                        "{key} is {} but {} in {}: not passes of one render",
+                        show(b),
+                        show(a),
+                        first_path.display()
+                    ));
+                }
+            }
+        }
+        let w = img
+            .float_attr(weight_key)
+            .filter(|w| w.is_finite() && *w > 0.0);
+        let Some(w) = w else {
+            return fail(format!(
+                "no positive {weight_key} in the header: cannot weight its samples"
+            ));
+        };
+        weights.push(w);
+        let Some(file_seeds) = seeds(img) else {
+            return fail(
+                "no mixmc.seed in the header: cannot tell whether its passes are independent"
+                    .into(),
+            );
+        };
+        for s in file_seeds {
+            if let Some((_, other)) = seen_seeds.iter().find(|(t, _)| *t == s) {
+                return fail(format!(
+                    "seed {s} was also used by {}: same seed, not independent passes",
+                    other.display()
+                ));
+            }
+            seen_seeds.push((s, path));
+        }
+    }
+
+    let total: f64 = weights.iter().sum();
+    let mut out = ExrImage::new(first.width, first.height);
+    for (name, data) in &first.channels {
+        let merged = if is_gbuffer(name) {
+            for (path, img) in rest {
+                let other = img.require(name)?;
+                if let Some(p) = data
+                    .iter()
+                    .zip(other)
+                    .position(|(a, b)| a.to_bits() != b.to_bits())
+                {
+                    return Err(Error::in_file(
+                        path,
+                        format!(
+                            "G-buffer channel {name} differs from {} at pixel ({}, {}): not the same view",
+                            first_path.display(),
+                            p % first.width,
+                            p / first.width
+                        ),
+                    ));
+                }
+            }
+            data.clone()
+        } else {
+            let channels: Vec<&[f32]> = inputs
+                .iter()
+                .map(|(_, img)| img.require(name))
+                .collect::<Result<_>>()?;
+            (0..data.len())
+                .map(|p| {
+                    let sum: f64 = channels
+                        .iter()
+                        .zip(&weights)
+                        .map(|(c, w)| w * c[p] as f64)
+                        .sum();
+                    (sum / total) as f32
+                })
+                .collect()
+        };
+        out.add(name, merged);
+    }
+    out.attributes = first.attributes.clone();
+    out.set_float(weight_key, total);
+    out.set_text(
+        "mixmc.seed",
+        seen_seeds
+            .iter()
+            .map(|(s, _)| s.as_str())
+            .collect::<Vec<_>>()
+            .join(","),
+    );
+    out.set_float(
+        "mixmc.seconds",
+        inputs
+            .iter()
+            .filter_map(|(_, i)| i.float_attr("mixmc.seconds"))
+            .sum(),
+    );
+    let partial = inputs
+        .iter()
+        .any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));
+    out.set_text("mixmc.partial", if partial { "true" } else { "false" });
+    Ok(out)
+}

@@ -232,3 +232,103 @@ pub fn mis_weight(
     }
     1.0 / (1.0 + sum)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrators::bidir::path::{camera_subpath, light_subpath};
+    use crate::rng::Rng;
+    use std::path::Path;
+
+    /// Lay the full path `xs` (camera first, light last) out as the sub-paths strategy
+    /// (n − t, t) would have produced: densities from the geometry, not from any walk.
+    fn split(scene: &Scene, xs: &[Vertex], t: usize) -> (Vec<Vertex>, Vec<Vertex>) {
+        let n = xs.len();
+        let dir = |a: usize, b: usize| (xs[b].p - xs[a].p).normalize();
+        let mut cam: Vec<Vertex> = Vec::new();
+        for i in 0..t {
+            let mut v = xs[i];
+            v.kind = if i == 0 { Kind::Camera } else { Kind::Surface };
+            if i > 0 {
+                v.wo = dir(i, i - 1);
+                let prev = &cam[i - 1];
+                let pp = if i >= 2 { Some(&cam[i - 2]) } else { None };
+                v.pdf_fwd = prev.to_area(prev.pdf_dir(scene, pp, &v), &v);
+            }
+            cam.push(v);
+        }
+        let mut light: Vec<Vertex> = Vec::new();
+        for k in 0..n - t {
+            let i = n - 1 - k;
+            let mut v = xs[i];
+            v.kind = if k == 0 { Kind::Light } else { Kind::Surface };
+            if k == 0 {
+                v.pdf_fwd = scene.light_pdf_area(v.tri);
+                v.wo = Vec3::ZERO;
+            } else {
+                v.wo = dir(i, i + 1);
+                let prev = &light[k - 1];
+                let pp = if k >= 2 { Some(&light[k - 2]) } else { None };
+                v.pdf_fwd = prev.to_area(prev.pdf_dir(scene, pp, &v), &v);
+            }
+            light.push(v);
+        }
+        // Reverse densities of inner vertices, as the walks store them.
+        for side in [&mut cam, &mut light] {
+            for j in 0..side.len().saturating_sub(2) {
+                let (a, b) = (side[j + 1], side[j + 2]);
+                side[j].pdf_rev = a.to_area(a.pdf_dir(scene, Some(&b), &side[j]), &side[j]);
+            }
+        }
+        (cam, light)
+    }
+
+    #[test]
+    fn mis_weights_of_all_strategies_sum_to_one() {
+        let scene = Scene::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/caustic.json"),
+        )
+        .unwrap();
+        let mut checked = 0;
+        for i in 0..400u64 {
+            let mut rng = Rng::new(3, i, 0);
+            let (mut cam, mut light) = (Vec::new(), Vec::new());
+            let u = rng.next_2d();
+            camera_subpath(&scene, u.x * 128.0, u.y * 128.0, &mut rng, 6, &mut cam);
+            light_subpath(&scene, &mut rng, 5, &mut light);
+            for t in 2..=cam.len() {
+                for s in [0usize, 2, 3, 4, 5] {
+                    if s > light.len()
+                        || connect(&scene, &light, &cam, s, t, &mut rng, Strategies::Bpt).is_none()
+                    {
+                        continue;
+                    }
+                    let xs: Vec<Vertex> = cam[..t]
+                        .iter()
+                        .chain(light[..s].iter().rev())
+                        .copied()
+                        .collect();
+                    let n = xs.len();
+                    let delta: Vec<bool> = (0..n).map(|k| xs[k].delta && k != n - 1).collect();
+                    for strategies in [Strategies::Bpt, Strategies::Ibpt, Strategies::Lt] {
+                        let mut sum = 0.0f64;
+                        for tp in 1..=n {
+                            let usable = tp == n || (!delta[tp - 1] && !delta[tp]);
+                            if !usable || !strategies.allowed(n - tp, tp, delta[1]) {
+                                continue;
+                            }
+                            let (c, l) = split(&scene, &xs, tp);
+                            sum += mis_weight(&scene, &l, &c, n - tp, tp, None, strategies) as f64;
+                        }
+                        assert!(
+                            (sum - 1.0).abs() < 1e-3,
+                            "{strategies:?} path of {n} vertices (s={s}, t={t}): Σw = {sum}"
+                        );
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 200, "only {checked} paths checked");
+    }
+}

@@ -97,18 +97,30 @@ pub fn emission_pdf(n: Vec3, w: Vec3) -> f32 {
     if c > 0.0 { c * INV_PI } else { 0.0 }
 }
 
-/// Extend `path` (which holds its first vertex) by a random walk from `o` along `d` until it has
-/// `max_vertices` vertices or the walk ends. `pdf` is the solid-angle density of `d`.
+/// How a walk leaves its first vertex: direction, throughput after it, the direction's
+/// solid-angle density, and whether the walk carries radiance or importance.
+pub struct Start {
+    pub dir: Vec3,
+    pub beta: Rgb,
+    pub pdf: f32,
+    pub mode: Mode,
+}
+
+/// Extend `path` (which holds its first vertex) by a random walk until it has `max_vertices`
+/// vertices or the walk ends.
 pub fn random_walk(
     scene: &Scene,
-    mut d: Vec3,
-    mut beta: Rgb,
-    mut pdf: f32,
+    start: Start,
     sampler: &mut impl Sampler,
-    mode: Mode,
     max_vertices: usize,
     path: &mut Vec<Vertex>,
 ) {
+    let Start {
+        dir: mut d,
+        mut beta,
+        mut pdf,
+        mode,
+    } = start;
     let mut o = {
         let v = path.last().expect("walk starts from a vertex");
         if v.on_surface() {
@@ -179,16 +191,13 @@ pub fn camera_subpath(
     path.push(cam);
     let d = scene.camera.ray_dir(x, y);
     let pdf = scene.camera.pdf_dir(d.dot(cam.n));
-    random_walk(
-        scene,
-        d,
-        Rgb::ONE,
+    let start = Start {
+        dir: d,
+        beta: Rgb::ONE,
         pdf,
-        sampler,
-        Mode::Radiance,
-        max_vertices,
-        path,
-    );
+        mode: Mode::Radiance,
+    };
+    random_walk(scene, start, sampler, max_vertices, path);
 }
 
 /// A light sub-path: a point on a light chosen by power and up to `max_vertices − 1` surface
@@ -226,14 +235,11 @@ pub fn light_subpath(
     let d = frame.to_world(local);
     // Le·cos/(pdf_area·cos/π): the cosines cancel.
     let beta = l0.beta * std::f32::consts::PI;
-    random_walk(
-        scene,
-        d,
+    let start = Start {
+        dir: d,
         beta,
-        local.z * INV_PI,
-        sampler,
-        Mode::Importance,
-        max_vertices,
-        path,
-    );
+        pdf: local.z * INV_PI,
+        mode: Mode::Importance,
+    };
+    random_walk(scene, start, sampler, max_vertices, path);
 }

@@ -17,6 +17,7 @@ pub fn bin(name: &str) -> PathBuf {
     let exe = match name {
         "mixmc-omc" => env!("CARGO_BIN_EXE_mixmc-omc"),
         "mixmc-scene" => env!("CARGO_BIN_EXE_mixmc-scene"),
+        "mixmc-diff" => env!("CARGO_BIN_EXE_mixmc-diff"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

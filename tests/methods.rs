@@ -1,0 +1,187 @@
+//! PT, LT, IBPT and BPT are estimators of the same image: they must converge to the same
+//! direct, indirect and beauty images, agree with Mitsuba 3, and the bidirectional ones must
+//! beat path tracing where it fails (a caustic).
+
+mod util;
+
+use mixmc::exrio::ExrImage;
+use std::path::{Path, PathBuf};
+use util::*;
+
+/// The tests of this file take the machine in turn: equal-time comparisons are meaningless
+/// while another render shares the cores.
+static MACHINE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn machine() -> std::sync::MutexGuard<'static, ()> {
+    MACHINE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn render(
+    dir: &Path,
+    scene: &str,
+    method: &str,
+    budget: &[&str],
+    seed: u64,
+    threads: &str,
+) -> PathBuf {
+    let out = dir.join(format!(
+        "{method}-{seed}-{}-t{threads}.exr",
+        budget.join("")
+    ));
+    let mut args = vec![
+        scene,
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--method",
+        method,
+        "--threads",
+        threads,
+    ];
+    let seed = seed.to_string();
+    args.extend_from_slice(&["--seed", &seed]);
+    args.extend_from_slice(budget);
+    run_ok("mixmc-omc", &args);
+    out
+}
+
+/// Image means within 1% and every 32×32 block within 3%, for beauty, direct and indirect.
+fn assert_agree(image: &Path, reference: &Path, what: &str) {
+    for prefix in [None, Some("direct"), Some("indirect")] {
+        let mut cmd = python_tool("compare_images.py");
+        cmd.arg(image).arg(reference);
+        if let Some(p) = prefix {
+            cmd.args(["--prefix", p]);
+        }
+        let out = cmd_output(&mut cmd);
+        assert!(
+            out.status.success(),
+            "{what} ({}) disagrees:\n{}",
+            prefix.unwrap_or("beauty"),
+            show(&out)
+        );
+    }
+}
+
+fn agree_on(scene_file: &str, name: &str, spp: [&str; 4]) {
+    let _machine = machine();
+    let dir = TempDir::new(name);
+    let scene = fixture(scene_file);
+    let reference = render(dir.path(), &scene, "bpt", &["--spp", spp[0]], 7, "2");
+    for (method, n) in [("pt", spp[1]), ("lt", spp[2]), ("ibpt", spp[3])] {
+        let img = render(dir.path(), &scene, method, &["--spp", n], 2, "2");
+        assert_agree(
+            &img,
+            &reference,
+            &format!("{name}: {method} at {n} spp vs BPT"),
+        );
+    }
+    // BPT against an independent renderer on the same triangles.
+    let xml_dir = dir.join("mitsuba");
+    run_ok(
+        "mixmc-scene",
+        &["export", &scene, "--mitsuba", xml_dir.to_str().unwrap()],
+    );
+    let mi = dir.join("mitsuba.exr");
+    run_cmd(
+        python_tool("mitsuba_render.py")
+            .arg(xml_dir.join("scene.xml"))
+            .args(["--spp", "4096", "--seed", "3", "-o"])
+            .arg(&mi),
+    );
+    let out = cmd_output(python_tool("compare_images.py").arg(&reference).arg(&mi));
+    assert!(
+        out.status.success(),
+        "{name}: BPT disagrees with Mitsuba's path tracer:\n{}",
+        show(&out)
+    );
+}
+
+#[test]
+fn methods_agree_on_the_cornell_box() {
+    agree_on(
+        "scenes/cornell-box-tiny.json",
+        "agree-cornell",
+        ["256", "512", "256", "256"],
+    );
+}
+
+#[test]
+fn methods_agree_on_the_caustic() {
+    agree_on(
+        "scenes/caustic-tiny.json",
+        "agree-caustic",
+        ["2048", "4096", "2048", "1024"],
+    );
+}
+
+fn relmse(diff_json: &str) -> f64 {
+    let key = "\"relmse\":";
+    let at = diff_json.find(key).expect("relmse in mixmc-diff --json") + key.len();
+    diff_json[at..]
+        .split([',', '}'])
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn bidirectional_methods_beat_path_tracing_in_the_caustic() {
+    let _machine = machine();
+    let dir = TempDir::new("equal-time");
+    let scene = fixture("scenes/caustic-tiny.json");
+    let reference = render(dir.path(), &scene, "bpt", &["--spp", "1536"], 99, "2");
+    // The shadow of the glass sphere: lit only through glass (L S S D E paths).
+    let crop = "20,38,26,10";
+    let mut mean = std::collections::BTreeMap::new();
+    for method in ["pt", "lt", "ibpt", "bpt"] {
+        let mut sum = 0.0;
+        for seed in [11, 12, 13] {
+            let img = render(dir.path(), &scene, method, &["--time", "1.5"], seed, "2");
+            let json = run_ok(
+                "mixmc-diff",
+                &[
+                    img.to_str().unwrap(),
+                    reference.to_str().unwrap(),
+                    "--metric",
+                    "relmse",
+                    "--crop",
+                    crop,
+                    "--json",
+                    "--fail",
+                    "1e30",
+                ],
+            );
+            sum += relmse(&json);
+        }
+        mean.insert(method, sum / 3.0);
+    }
+    eprintln!("equal-time relMSE in the caustic (mean of 3 seeds): {mean:?}");
+    for method in ["lt", "ibpt", "bpt"] {
+        assert!(
+            mean[method] < 0.75 * mean["pt"],
+            "{method} is not clearly better than PT: {mean:?}"
+        );
+    }
+}
+
+#[test]
+fn light_tracing_is_bit_identical_across_thread_counts() {
+    let _machine = machine();
+    let dir = TempDir::new("lt-threads");
+    let scene = fixture("scenes/caustic-tiny.json");
+    for method in ["lt", "ibpt", "bpt"] {
+        let a =
+            ExrImage::read(&render(dir.path(), &scene, method, &["--spp", "3"], 5, "1")).unwrap();
+        let b =
+            ExrImage::read(&render(dir.path(), &scene, method, &["--spp", "3"], 5, "2")).unwrap();
+        for ((na, da), (_, db)) in a.channels.iter().zip(&b.channels) {
+            assert!(
+                da.iter().zip(db).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{method}: channel {na} differs"
+            );
+        }
+    }
+}

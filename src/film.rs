@@ -139,6 +139,16 @@ pub fn write_png(path: &Path, width: usize, height: usize, rgb: &[[f32; 3]]) -> 
     write_png_rgb8(path, width, height, bytes)
 }
 
+/// Write the sRGB preview of an image's `R,G,B` channels.
+pub fn write_beauty_png(path: &Path, img: &ExrImage) -> Result<()> {
+    write_png(
+        path,
+        img.width,
+        img.height,
+        &img.require_rgb(["R", "G", "B"])?,
+    )
+}
+
 /// Write 8-bit RGB pixels as a PNG, atomically.
 pub fn write_png_rgb8(path: &Path, width: usize, height: usize, bytes: Vec<u8>) -> Result<()> {
     let img = image::RgbImage::from_raw(width as u32, height as u32, bytes)

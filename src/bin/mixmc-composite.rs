@@ -6,7 +6,7 @@ use mixmc::cli::main_with;
 use mixmc::composite::{DEFAULT_SWITCH, Input, Options, composite};
 use mixmc::error::Error;
 use mixmc::exrio::ExrImage;
-use mixmc::film::write_png;
+use mixmc::film::write_beauty_png;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -75,12 +75,7 @@ fn main() -> ExitCode {
         let img = &result.image;
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
-            write_png(
-                png,
-                img.width,
-                img.height,
-                &img.require_rgb(["R", "G", "B"])?,
-            )?;
+            write_beauty_png(png, &img)?;
         }
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)

@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use mixmc::cli::{RenderArgs, main_with};
-use mixmc::film::write_png;
+use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
 use mixmc::omc::{OmcSettings, render};
 use mixmc::scene::Scene;
@@ -54,12 +54,7 @@ fn main() -> ExitCode {
         let img = render(&scene, &settings);
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
-            write_png(
-                png,
-                img.width,
-                img.height,
-                &img.require_rgb(["R", "G", "B"])?,
-            )?;
+            write_beauty_png(png, &img)?;
         }
         let partial = img.text_attr("mixmc.partial").as_deref() == Some("true");
         let spp = img.float_attr("mixmc.spp").unwrap_or(0.0);

@@ -67,18 +67,7 @@ pub fn connect(
         }
         let (u_sel, u) = (sampler.next_1d(), sampler.next_2d());
         let ls = scene.sample_light(u_sel, u);
-        let l0 = Vertex {
-            kind: Kind::Light,
-            p: ls.p,
-            n: ls.n,
-            wo: Vec3::ZERO,
-            tri: ls.tri,
-            material: scene.tri_info[ls.tri as usize].material,
-            beta: ls.le / ls.pdf_area,
-            delta: false,
-            pdf_fwd: ls.pdf_area,
-            pdf_rev: 0.0,
-        };
+        let l0 = Vertex::light(scene, &ls);
         let d = l0.p - pt.p;
         let dist2 = d.length_squared();
         let w = d / dist2.sqrt();

@@ -3,6 +3,7 @@
 //! (s, t) connection can be weighted against all other strategies (Veach's thesis, ch. 10).
 
 use crate::bsdf::Mode;
+use crate::lights::LightSample;
 use crate::math::{INV_PI, Rgb, Vec3, cosine_hemisphere};
 use crate::rng::Sampler;
 use crate::scene::Scene;
@@ -47,6 +48,22 @@ impl Vertex {
             beta: Rgb::ONE,
             delta: false,
             pdf_fwd: 1.0,
+            pdf_rev: 0.0,
+        }
+    }
+
+    /// The first vertex of a light sub-path, or the light end of next-event estimation.
+    pub fn light(scene: &Scene, ls: &LightSample) -> Vertex {
+        Vertex {
+            kind: Kind::Light,
+            p: ls.p,
+            n: ls.n,
+            wo: Vec3::ZERO,
+            tri: ls.tri,
+            material: scene.tri_info[ls.tri as usize].material,
+            beta: ls.le / ls.pdf_area,
+            delta: false,
+            pdf_fwd: ls.pdf_area,
             pdf_rev: 0.0,
         }
     }
@@ -214,18 +231,7 @@ pub fn light_subpath(
     }
     let (u_sel, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
     let ls = scene.sample_light(u_sel, u_pos);
-    let l0 = Vertex {
-        kind: Kind::Light,
-        p: ls.p,
-        n: ls.n,
-        wo: Vec3::ZERO,
-        tri: ls.tri,
-        material: scene.tri_info[ls.tri as usize].material,
-        beta: ls.le / ls.pdf_area,
-        delta: false,
-        pdf_fwd: ls.pdf_area,
-        pdf_rev: 0.0,
-    };
+    let l0 = Vertex::light(scene, &ls);
     path.push(l0);
     let local = cosine_hemisphere(u_dir);
     if local.z <= 0.0 {

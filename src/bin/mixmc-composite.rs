@@ -75,7 +75,7 @@ fn main() -> ExitCode {
         let img = &result.image;
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
-            write_beauty_png(png, &img)?;
+            write_beauty_png(png, img)?;
         }
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)

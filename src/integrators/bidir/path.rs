@@ -92,11 +92,27 @@ impl Vertex {
     }
 
     /// Convert a solid-angle density at this vertex towards `next` into an area density at `next`.
+    ///
+    /// Into a delta vertex the density is kept per projected solid angle at this vertex instead:
+    /// a specular chain between two connectable vertices x_a and x_b then contributes
+    /// p_ω(x_a)/cos_a on one side and p_ω(x_b)/cos_b on the other, whose ratio is the true one
+    /// (the chain's generalised geometry term is symmetric and cancels). Converting through the
+    /// chain's first segment instead (pbrt's convention) is off by the ratio of the two end
+    /// segments' geometry terms, which over-weights a camera path hitting a small light through
+    /// glass by orders of magnitude and leaves fireflies in caustics.
     pub fn to_area(&self, pdf: f32, next: &Vertex) -> f32 {
         let d = next.p - self.p;
         let dist2 = d.length_squared();
         if dist2 == 0.0 {
             return 0.0;
+        }
+        if next.delta && next.kind == Kind::Surface {
+            let cos = if self.on_surface() {
+                (d.dot(self.n) / dist2.sqrt()).abs()
+            } else {
+                1.0
+            };
+            return if cos > 0.0 { pdf / cos } else { 0.0 };
         }
         let cos = if next.on_surface() {
             (d.dot(next.n) / dist2.sqrt()).abs()

@@ -5,28 +5,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 const MASK: &str = env!("CARGO_BIN_EXE_mixmc-mask");
-const OMC: &str = env!("CARGO_BIN_EXE_mixmc-omc");
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+mod util;
 
-/// A fresh directory for one test.
-fn test_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("mixmc-mask-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn python() -> PathBuf {
-    let py = root().join("tools/.venv/bin/python");
-    assert!(
-        py.exists(),
-        "tools/.venv is missing: run tools/setup.sh to install the cross-check tools"
-    );
-    py
-}
+use util::{OMC, python, root, temp_dir as test_dir};
 
 fn run(cmd: &mut Command) -> Output {
     let out = cmd.output().unwrap();

@@ -15,7 +15,8 @@ fn render(scene: &str, out: &Path, extra: &[&str]) -> ExrImage {
 
 #[test]
 fn direct_plus_indirect_is_beauty_and_matid_is_integral() {
-    let dir = temp_dir("aov");
+    let tmp = TempDir::new("aov");
+    let dir = tmp.path();
     let img = render(
         &fixture("scenes/caustic.json"),
         &dir.join("c.exr"),
@@ -46,7 +47,8 @@ fn direct_plus_indirect_is_beauty_and_matid_is_integral() {
 
 #[test]
 fn same_seed_is_bit_identical_for_any_thread_count() {
-    let dir = temp_dir("threads");
+    let tmp = TempDir::new("threads");
+    let dir = tmp.path();
     let scene = fixture("scenes/caustic.json");
     let a = render(
         &scene,
@@ -124,7 +126,8 @@ fn expect_input_error(dir: &Path, name: &str, scene_text: &str, needle: &str) {
 
 #[test]
 fn bad_scenes_give_one_line_errors_and_exit_2() {
-    let dir = temp_dir("bad");
+    let tmp = TempDir::new("bad");
+    let dir = tmp.path();
     let good = std::fs::read_to_string(fixture("scenes/caustic.json")).unwrap();
     let cases: Vec<(&str, String, &str)> = vec![
         ("malformed", good.replacen('{', "{{", 2), "line 1"),
@@ -145,7 +148,7 @@ fn bad_scenes_give_one_line_errors_and_exit_2() {
     ];
     for (name, text, needle) in cases {
         assert_ne!(text, good, "{name}: the fixture edit did not apply");
-        expect_input_error(&dir, name, &text, needle);
+        expect_input_error(dir, name, &text, needle);
     }
     let out = run(
         "mixmc-omc",
@@ -160,7 +163,8 @@ fn bad_scenes_give_one_line_errors_and_exit_2() {
 
 #[test]
 fn sigint_writes_a_valid_partial_image() {
-    let dir = temp_dir("sigint");
+    let tmp = TempDir::new("sigint");
+    let dir = tmp.path();
     let out_file = dir.join("partial.exr");
     let mut child = std::process::Command::new(bin("mixmc-omc"))
         .args([

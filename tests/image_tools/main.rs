@@ -2,6 +2,9 @@
 //! synthetic inputs and tiny renders, cross-checked against NumPy / NVIDIA FLIP in
 //! `tools/metrics_reference.py`. One test binary, each test in its own temporary directory.
 
+#[path = "../util/mod.rs"]
+mod shared;
+
 mod composite;
 mod diff;
 mod merge;

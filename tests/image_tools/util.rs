@@ -1,7 +1,7 @@
 //! Shared helpers: temporary directories, running the real binaries, the Python reference.
 
 use mixmc::exrio::ExrImage;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 pub const COMPOSITE: &str = env!("CARGO_BIN_EXE_mixmc-composite");
@@ -9,13 +9,7 @@ pub const DIFF: &str = env!("CARGO_BIN_EXE_mixmc-diff");
 pub const MERGE: &str = env!("CARGO_BIN_EXE_mixmc-merge");
 pub const OMC: &str = env!("CARGO_BIN_EXE_mixmc-omc");
 
-/// A fresh directory for one test, emptied if a previous run left it.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("mixmc-image-tools-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+pub use crate::shared::temp_dir;
 
 pub fn repo(rel: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -89,14 +83,9 @@ pub fn rgb(img: &ExrImage, prefix: &str) -> Vec<[f32; 3]> {
     img.require_rgb([&n("R"), &n("G"), &n("B")]).unwrap()
 }
 
-/// The Python of tools/.venv; the cross-checks are part of the suite, so a missing venv fails.
+/// The Python of tools/.venv (a missing venv fails the test).
 pub fn python() -> String {
-    let py = repo("tools/.venv/bin/python");
-    assert!(
-        Path::new(&py).exists(),
-        "{py} is missing: run tools/setup.sh (it installs the Python cross-check tools)"
-    );
-    py
+    crate::shared::python().display().to_string()
 }
 
 /// Run `tools/metrics_reference.py` and parse its JSON.

@@ -100,6 +100,10 @@ pub fn connect(
         return None;
     }
     let weight = mis_weight(scene, light, cam, s, t, sampled.as_ref(), strategies);
+    // A degenerate density (a grazing cosine of zero) must not poison a pixel with NaN forever.
+    if !weight.is_finite() {
+        return None;
+    }
     Some(Connection {
         value: value * weight,
         raster,

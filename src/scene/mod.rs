@@ -5,6 +5,7 @@ pub mod desc;
 pub mod export;
 pub mod mesh;
 pub mod obj;
+pub mod water;
 
 use crate::accel::{Bvh, Ray};
 use crate::bsdf::Bsdf;
@@ -392,6 +393,33 @@ fn generate(o: &ObjectDesc, base: &Path) -> Result<Mesh> {
                 *major_segments,
                 *minor_segments,
             )
+        }
+        ObjectDesc::Water {
+            center,
+            size,
+            depth,
+            amplitude,
+            wavelength,
+            max_error,
+            ..
+        } => {
+            if !size.iter().all(|s| s.is_finite() && *s > 0.0) {
+                return Err(Error::new("water: size must be positive"));
+            }
+            if !(amplitude.is_finite() && *amplitude >= 0.0 && amplitude < depth) {
+                return Err(Error::new(
+                    "water: amplitude must be at least 0 and less than depth",
+                ));
+            }
+            water::Water {
+                center: v(center),
+                size: *size,
+                depth: *depth,
+                amplitude: *amplitude,
+                wavelength: *wavelength,
+                max_error: max_error.unwrap_or((amplitude / 50.0).max(1e-6)),
+            }
+            .mesh()?
         }
         ObjectDesc::Obj { path, .. } => obj::load(&base.join(path))?,
     })

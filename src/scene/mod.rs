@@ -460,6 +460,27 @@ mod tests {
     }
 
     #[test]
+    fn water_builds_and_checks_its_parameters() {
+        let water = MINIMAL.replace(
+            r#"{"type": "sphere", "radius": 1, "material": "white"}"#,
+            r#"{"type": "water", "size": [2, 1], "depth": 0.5, "amplitude": 0.05, "wavelength": 0.8, "material": "white"}"#,
+        );
+        let s = Scene::build(&parse(&water).unwrap(), Path::new("x.json"), &water).unwrap();
+        assert!(s.tri_verts.len() > 100);
+        // Waves as high as the block is deep would cut through the bottom.
+        let deep = water.replace("\"amplitude\": 0.05", "\"amplitude\": 0.5");
+        let Err(e) = Scene::build(&parse(&deep).unwrap(), Path::new("x.json"), &deep) else {
+            panic!("accepted")
+        };
+        assert!(
+            e.message.contains("objects[0]") && e.message.contains("amplitude"),
+            "{e}"
+        );
+        let bad = water.replace("\"size\": [2, 1]", "\"size\": [2, -1]");
+        assert!(Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad).is_err());
+    }
+
+    #[test]
     fn errors_name_line_column_and_key() {
         let bad = MINIMAL.replace("\"width\": 8", "\"width\": 0");
         let e = parse(&bad).unwrap_err();

@@ -1,7 +1,8 @@
-//! `mixmc-scene info|export`: look at a scene and hand it to other renderers.
+//! `mixmc-scene info|preview|export`: look at a scene and hand it to other renderers.
 
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
 use mixmc::cli::main_with;
+use mixmc::film::{GBuffer, write_png};
 use mixmc::math::luminance;
 use mixmc::scene::{Scene, export::export_mitsuba};
 use std::path::PathBuf;
@@ -22,6 +23,16 @@ struct Args {
 enum Command {
     /// Triangles, lights and their power, bounds, materials.
     Info { scene: PathBuf },
+    /// A G-buffer image from one ray per pixel, with no light transport: seconds, not minutes,
+    /// to check the camera, the layout and the materials while building a scene.
+    Preview {
+        scene: PathBuf,
+        /// Output PNG.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(long, value_enum, default_value_t = Kind::Albedo)]
+        kind: Kind,
+    },
     /// Write the scene for another renderer.
     Export {
         scene: PathBuf,
@@ -29,6 +40,82 @@ enum Command {
         #[arg(long)]
         mitsuba: PathBuf,
     },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Kind {
+    /// Each material's albedo (or reflectance); emitters in their normalised colour.
+    Albedo,
+    /// Geometric normal mapped to colour as n·0.5 + 0.5.
+    Normal,
+    /// A distinct false colour per material id; black where no surface is hit.
+    Matid,
+}
+
+/// A well-spread colour for material `id`: hues stepped by the golden ratio, so neighbouring
+/// ids never look alike however many materials a scene has.
+fn id_colour(id: f32) -> [f32; 3] {
+    if id < 0.0 {
+        return [0.0; 3];
+    }
+    let h = (id * 0.618_034).fract() * 6.0;
+    let x = 1.0 - (h % 2.0 - 1.0).abs();
+    let c = match h as u32 {
+        0 => [1.0, x, 0.0],
+        1 => [x, 1.0, 0.0],
+        2 => [0.0, 1.0, x],
+        3 => [0.0, x, 1.0],
+        4 => [x, 0.0, 1.0],
+        _ => [1.0, 0.0, x],
+    };
+    // Linear values, darkened a little so sRGB encoding keeps them apart.
+    c.map(|v| 0.05 + 0.6 * v)
+}
+
+fn preview(scene: &Scene, kind: Kind) -> Vec<[f32; 3]> {
+    let g = GBuffer::trace(scene);
+    match kind {
+        Kind::Albedo => g
+            .albedo
+            .iter()
+            .zip(&g.matid)
+            .map(|(a, &id)| {
+                let e = if id >= 0.0 {
+                    scene.materials[id as usize].emission
+                } else {
+                    Default::default()
+                };
+                if e.max_element() > 0.0 {
+                    (e / e.max_element()).to_array()
+                } else {
+                    a.to_array()
+                }
+            })
+            .collect(),
+        // Linear values chosen so the sRGB-encoded PNG shows n·0.5 + 0.5.
+        Kind::Normal => {
+            g.n.iter()
+                .zip(&g.matid)
+                .map(|(n, &id)| {
+                    if id < 0.0 {
+                        [0.0; 3]
+                    } else {
+                        (*n * 0.5 + 0.5).to_array().map(srgb_to_linear)
+                    }
+                })
+                .collect()
+        }
+        Kind::Matid => g.matid.iter().map(|&id| id_colour(id)).collect(),
+    }
+}
+
+/// Inverse of the sRGB transfer curve, so `write_png` reproduces a display value exactly.
+fn srgb_to_linear(s: f32) -> f32 {
+    if s <= 0.040_45 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 fn main() -> ExitCode {
@@ -62,6 +149,16 @@ fn main() -> ExitCode {
                         m.name, m.bsdf
                     );
                 }
+            }
+            Command::Preview {
+                scene,
+                output,
+                kind,
+            } => {
+                let s = Scene::load(&scene)?;
+                let rgb = preview(&s, kind);
+                write_png(&output, s.width() as usize, s.height() as usize, &rgb)?;
+                println!("{}", output.display());
             }
             Command::Export { scene, mitsuba } => {
                 let s = Scene::load(&scene)?;

@@ -168,6 +168,23 @@ pub enum ObjectDesc {
         material: String,
         transform: Option<TransformDesc>,
     },
+    /// A block of water with a wavy top (see `scene::water`): `center` is the middle of the mean
+    /// water level, `size` its extent in x and z, `depth` the distance down to the flat bottom.
+    Water {
+        #[serde(default, deserialize_with = "finite3")]
+        center: V3,
+        size: [f32; 2],
+        #[serde(deserialize_with = "positive")]
+        depth: f32,
+        amplitude: f32,
+        #[serde(deserialize_with = "positive")]
+        wavelength: f32,
+        /// Largest distance between the triangles and the true surface; default amplitude / 50.
+        #[serde(default, deserialize_with = "opt_positive")]
+        max_error: Option<f32>,
+        material: String,
+        transform: Option<TransformDesc>,
+    },
     /// A Wavefront OBJ file (positions and faces; path relative to the scene file).
     Obj {
         path: String,
@@ -183,6 +200,7 @@ impl ObjectDesc {
             | ObjectDesc::Box { material, .. }
             | ObjectDesc::Sphere { material, .. }
             | ObjectDesc::Torus { material, .. }
+            | ObjectDesc::Water { material, .. }
             | ObjectDesc::Obj { material, .. } => material,
         }
     }
@@ -193,6 +211,7 @@ impl ObjectDesc {
             | ObjectDesc::Box { transform, .. }
             | ObjectDesc::Sphere { transform, .. }
             | ObjectDesc::Torus { transform, .. }
+            | ObjectDesc::Water { transform, .. }
             | ObjectDesc::Obj { transform, .. } => transform.as_ref(),
         }
     }
@@ -234,6 +253,10 @@ fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     } else {
         Err(D::Error::custom(format!("{v} must be a positive number")))
     }
+}
+
+fn opt_positive<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f32>, D::Error> {
+    positive(d).map(Some)
 }
 
 fn fov<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {

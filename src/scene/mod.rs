@@ -5,6 +5,7 @@ pub mod desc;
 pub mod export;
 pub mod mesh;
 pub mod obj;
+pub mod water;
 
 use crate::accel::{Bvh, Ray};
 use crate::bsdf::Bsdf;
@@ -393,6 +394,33 @@ fn generate(o: &ObjectDesc, base: &Path) -> Result<Mesh> {
                 *minor_segments,
             )
         }
+        ObjectDesc::Water {
+            center,
+            size,
+            depth,
+            amplitude,
+            wavelength,
+            max_error,
+            ..
+        } => {
+            if !size.iter().all(|s| s.is_finite() && *s > 0.0) {
+                return Err(Error::new("water: size must be positive"));
+            }
+            if !(amplitude.is_finite() && *amplitude >= 0.0 && amplitude < depth) {
+                return Err(Error::new(
+                    "water: amplitude must be at least 0 and less than depth",
+                ));
+            }
+            water::Water {
+                center: v(center),
+                size: *size,
+                depth: *depth,
+                amplitude: *amplitude,
+                wavelength: *wavelength,
+                max_error: max_error.unwrap_or((amplitude / 50.0).max(1e-6)),
+            }
+            .mesh()?
+        }
         ObjectDesc::Obj { path, .. } => obj::load(&base.join(path))?,
     })
 }
@@ -429,6 +457,27 @@ mod tests {
         assert_eq!(d.max_depth, 8);
         let s = Scene::build(&d, Path::new("x.json"), MINIMAL).unwrap();
         assert!(s.tri_verts.len() > 1000 && s.lights.is_empty());
+    }
+
+    #[test]
+    fn water_builds_and_checks_its_parameters() {
+        let water = MINIMAL.replace(
+            r#"{"type": "sphere", "radius": 1, "material": "white"}"#,
+            r#"{"type": "water", "size": [2, 1], "depth": 0.5, "amplitude": 0.05, "wavelength": 0.8, "material": "white"}"#,
+        );
+        let s = Scene::build(&parse(&water).unwrap(), Path::new("x.json"), &water).unwrap();
+        assert!(s.tri_verts.len() > 100);
+        // Waves as high as the block is deep would cut through the bottom.
+        let deep = water.replace("\"amplitude\": 0.05", "\"amplitude\": 0.5");
+        let Err(e) = Scene::build(&parse(&deep).unwrap(), Path::new("x.json"), &deep) else {
+            panic!("accepted")
+        };
+        assert!(
+            e.message.contains("objects[0]") && e.message.contains("amplitude"),
+            "{e}"
+        );
+        let bad = water.replace("\"size\": [2, 1]", "\"size\": [2, -1]");
+        assert!(Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad).is_err());
     }
 
     #[test]

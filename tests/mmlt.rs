@@ -285,3 +285,61 @@ fn bad_masks_are_one_line_errors_naming_the_file() {
         show(&r)
     );
 }
+
+#[test]
+fn time_budget_and_sigint_give_scaled_images() {
+    let dir = TempDir::new("mmlt-time");
+    let scene = fixture(CORNELL);
+    let (_, indirect) = reference(CORNELL);
+    let ind = ExrImage::read(&indirect).unwrap();
+    let mean = |img: &ExrImage| {
+        let g = img.require("G").unwrap();
+        g.iter().map(|v| *v as f64).sum::<f64>() / g.len() as f64
+    };
+    let want = mean(&ind);
+    let timed = mmlt(
+        &scene,
+        &dir.join("t.exr"),
+        &["--time", "2", "--bootstrap", "10000"],
+    );
+    let secs = timed.float_attr("mixmc.seconds").unwrap();
+    assert!(secs <= 2.04, "{secs} s for --time 2");
+    assert!(timed.float_attr("mixmc.mutations_per_pixel").unwrap() >= 1.0);
+    assert!(
+        (mean(&timed) / want - 1.0).abs() < 0.1,
+        "{} vs {want}",
+        mean(&timed)
+    );
+
+    let out = dir.join("partial.exr");
+    let mut child = std::process::Command::new(bin("mixmc-mmlt"))
+        .args([
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--mutations-per-pixel",
+            "1000000",
+            "--bootstrap",
+            "10000",
+            "-q",
+        ])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(2000));
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    let img = ExrImage::read(&out).unwrap();
+    assert_eq!(img.text_attr("mixmc.partial").as_deref(), Some("true"));
+    let mpp = img.float_attr("mixmc.mutations_per_pixel").unwrap();
+    assert!((1.0..1e6).contains(&mpp), "{mpp}");
+    // Scaled by the mutations actually done: the partial image estimates the same light.
+    assert!(
+        (mean(&img) / want - 1.0).abs() < 0.1,
+        "{} vs {want}",
+        mean(&img)
+    );
+}

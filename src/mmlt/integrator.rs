@@ -236,6 +236,11 @@ impl Chain {
             } else {
                 1.0
             };
+            // Expected-value splatting: the proposal gets a, the current state 1 − a. With
+            // Kelemen's MIS the large steps are also an independent estimator of density p_large
+            // beside the chain's Y/b_d (b_d: this depth's normalisation, the chain's space), so
+            // each splat is f / (Y/b_d + p_large) per unit of weight and the proposal of a large
+            // step gets one extra unit: per mutation the expected splat is ∫f either way.
             let (w_prop, w_cur) = if s.kelemen_mis {
                 (
                     (a + large as u8 as f32) / (proposal.y * inv_b + p_large),

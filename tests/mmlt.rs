@@ -88,7 +88,10 @@ fn converges(scene: &str, name: &str, extra: &[&str], against_beauty: bool) {
     let (beauty, indirect) = reference(scene);
     let out = dir.join("mcmc.exr");
     // Paths through the glass sphere mix slowly with σ = 0.01: the caustic scene needs more
-    // mutations for its 32×32 blocks to settle within 5%.
+    // mutations for its 32×32 blocks to settle within 5%. Its b also has a heavy tail (a caustic
+    // seen through the glass is made only by s = 0): over seeds 1–6 at 1024 mutations/px the image
+    // mean is off by −1.7, −0.1, +0.2, +2.1, −1.3, −1.7% against 2048-spp BPT, so this seed's
+    // margin is not that of every seed; the output is deterministic, so the test is not flaky.
     let mpp = if scene == CAUSTIC { "1024" } else { "512" };
     let mut args = vec!["--mutations-per-pixel", mpp, "--seed", "3"];
     args.extend_from_slice(extra);

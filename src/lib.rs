@@ -17,6 +17,7 @@ pub mod mask;
 pub mod math;
 pub mod merge;
 pub mod metrics;
+pub mod mmlt;
 pub mod omc;
 pub mod output;
 pub mod progress;

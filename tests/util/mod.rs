@@ -18,6 +18,7 @@ pub fn bin(name: &str) -> PathBuf {
         "mixmc-omc" => env!("CARGO_BIN_EXE_mixmc-omc"),
         "mixmc-scene" => env!("CARGO_BIN_EXE_mixmc-scene"),
         "mixmc-diff" => env!("CARGO_BIN_EXE_mixmc-diff"),
+        "mixmc-mmlt" => env!("CARGO_BIN_EXE_mixmc-mmlt"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

@@ -1,0 +1,8 @@
+//! Multiplexed Metropolis light transport on the (masked) indirect light: the MCMC half of the
+//! paper's method (DESIGN §1, §5). `sampler` is the primary-sample-space state and its mutations,
+//! `integrator` the bootstrap, the chains and the splatting.
+
+pub mod integrator;
+pub mod sampler;
+
+pub use integrator::{Mask, MmltResult, MmltSettings, mcmc_image, render};

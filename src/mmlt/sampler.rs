@@ -1,0 +1,344 @@
+//! The primary-sample-space sampler of MMLT (Kelemen et al. 2002; the shape of pbrt-v3's
+//! `MLTSampler`). A chain state is a vector of numbers in [0, 1); path construction reads them
+//! through [`Sampler`], so the same camera, light and connection code serves BPT and MMLT.
+//!
+//! Three interleaved streams (camera, light, connection) give each sub-path its own dimensions:
+//! dimension `stream + 3·k` is the k-th number of that stream, so a camera sub-path that grows or
+//! shrinks does not shift the light sub-path's numbers, and a mutation changes a path smoothly.
+//!
+//! Mutations are lazy: a dimension is brought up to date only when it is read, with one Gaussian
+//! step of σ·√(accepted iterations since it was last modified), which has the same distribution as
+//! that many eager steps (sums of Gaussians), or with a fresh uniform when a large step was accepted
+//! since. Every random number is keyed by (seed, chain, mutation, dimension), so a value does not
+//! depend on the order dimensions are read in, and a chain does not depend on threads.
+
+use crate::rng::{Rng, Sampler, mix64};
+
+/// Stream of the strategy choice, film position and camera sub-path.
+pub const CAMERA_STREAM: usize = 0;
+/// Stream of the light sub-path.
+pub const LIGHT_STREAM: usize = 1;
+/// Stream of the connection (next-event estimation's light sample).
+pub const CONNECTION_STREAM: usize = 2;
+const STREAM_COUNT: usize = 3;
+
+/// Keys separating the chain's own decisions, the initial state and the per-dimension numbers.
+const STEP_KEY: u64 = 0x4d4d_4c54_5354_4550;
+const INIT_KEY: u64 = 0x4d4d_4c54_494e_4954;
+const DIM_KEY: u64 = 0x4d4d_4c54_4449_4d53;
+/// Stamp of a dimension that was never read (the gaps between interleaved streams).
+const UNREAD: u64 = u64::MAX;
+
+/// One coordinate of the state, with what is needed to undo the current iteration's change.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PrimarySample {
+    pub value: f32,
+    /// The value before the current iteration modified it.
+    pub backup: f32,
+    /// The iteration (counting accepted ones only) in which `value` was last brought up to date.
+    pub last_modified: u64,
+    /// `last_modified` before the current iteration.
+    pub modify_backup: u64,
+}
+
+impl PrimarySample {
+    fn save(&mut self) {
+        self.backup = self.value;
+        self.modify_backup = self.last_modified;
+    }
+
+    fn restore(&mut self) {
+        self.value = self.backup;
+        self.last_modified = self.modify_backup;
+    }
+}
+
+/// A Markov chain's state in primary sample space and its mutation rule.
+#[derive(Clone, Debug)]
+pub struct MltSampler {
+    seed: u64,
+    /// Key of the initial state: a chain started from bootstrap sample `init` reproduces it.
+    init: u64,
+    /// Key of the chain's mutations, distinct per chain even when two start from one sample.
+    chain: u64,
+    sigma: f32,
+    large_step_probability: f32,
+    x: Vec<PrimarySample>,
+    /// Stamps: accepted iterations plus the current one (a rejection takes it back).
+    iteration: u64,
+    /// Counts every proposal and keys its random numbers; never reused, unlike `iteration`.
+    mutation: u64,
+    large_step: bool,
+    last_large_step: u64,
+    accept_u: f32,
+    stream: usize,
+    sample_index: usize,
+}
+
+impl MltSampler {
+    /// A state whose first reading is a large step: uniform numbers keyed by `init`.
+    pub fn new(seed: u64, init: u64, chain: u64, sigma: f32, large_step_probability: f32) -> Self {
+        MltSampler {
+            seed,
+            init,
+            chain,
+            sigma,
+            large_step_probability,
+            x: Vec::new(),
+            iteration: 0,
+            mutation: 0,
+            large_step: true,
+            last_large_step: 0,
+            accept_u: 0.0,
+            stream: CAMERA_STREAM,
+            sample_index: 0,
+        }
+    }
+
+    /// Propose a new state: decide between a large and a small step (the dimensions themselves
+    /// change lazily, when read).
+    pub fn start_iteration(&mut self) {
+        self.mutation += 1;
+        self.iteration += 1;
+        let mut r = Rng::new(self.seed ^ STEP_KEY, self.chain, self.mutation);
+        self.large_step = r.next_1d() < self.large_step_probability;
+        self.accept_u = r.next_1d();
+    }
+
+    /// Whether the current proposal is a large step (an independent sample).
+    pub fn large_step(&self) -> bool {
+        self.large_step
+    }
+
+    /// A uniform number for the Metropolis test of the current proposal.
+    pub fn accept_uniform(&self) -> f32 {
+        self.accept_u
+    }
+
+    /// Keep the proposal.
+    pub fn accept(&mut self) {
+        if self.large_step {
+            self.last_large_step = self.iteration;
+        }
+    }
+
+    /// Return to the previous state: every value and stamp the proposal changed is restored
+    /// exactly, and the iteration does not count towards later lazy steps.
+    pub fn reject(&mut self) {
+        for xi in &mut self.x {
+            if xi.last_modified == self.iteration {
+                xi.restore();
+            }
+        }
+        self.iteration -= 1;
+    }
+
+    /// Read the following numbers from `stream` (one of the `*_STREAM` constants), from its start.
+    pub fn start_stream(&mut self, stream: usize) {
+        debug_assert!(stream < STREAM_COUNT);
+        self.stream = stream;
+        self.sample_index = 0;
+    }
+
+    /// The stored state (for tests and diagnostics).
+    pub fn state(&self) -> &[PrimarySample] {
+        &self.x
+    }
+
+    /// Random numbers of dimension `index` for the current mutation: independent of the order in
+    /// which dimensions are read.
+    fn dim_rng(&self, index: usize) -> Rng {
+        let (key, stream) = if self.mutation == 0 {
+            (INIT_KEY, self.init)
+        } else {
+            (DIM_KEY, self.chain)
+        };
+        Rng::new(self.seed ^ mix64(key ^ index as u64), stream, self.mutation)
+    }
+
+    /// Bring dimension `index` up to date for the current proposal.
+    fn ensure_ready(&mut self, index: usize) {
+        let mut r = self.dim_rng(index);
+        let catch_up = r.next_1d();
+        if index >= self.x.len() {
+            // A dimension never read before: in an eager chain it would hold a uniform number
+            // (from the first state or a later accepted large step), so it starts as one.
+            self.x.resize(
+                index + 1,
+                PrimarySample {
+                    value: f32::NAN,
+                    backup: f32::NAN,
+                    last_modified: UNREAD,
+                    modify_backup: UNREAD,
+                },
+            );
+        }
+        let (large, iteration, last_large, sigma) = (
+            self.large_step,
+            self.iteration,
+            self.last_large_step,
+            self.sigma,
+        );
+        let xi = &mut self.x[index];
+        // Saved before the catch-up, so a rejection leaves the state exactly as it was; a stale
+        // value is caught up again, with an equally uniform number, when next read.
+        xi.save();
+        if xi.last_modified == UNREAD || xi.last_modified < last_large {
+            xi.value = catch_up;
+            xi.last_modified = last_large;
+        }
+        if large {
+            xi.value = r.next_1d();
+        } else {
+            let n_small = iteration - xi.last_modified;
+            let step = gaussian(r.next_1d(), r.next_1d()) * sigma * (n_small as f32).sqrt();
+            let mut v = xi.value + step;
+            v -= v.floor();
+            // -tiny wraps to exactly 1.0 in f32; 1 ≡ 0 on the torus.
+            if v >= 1.0 {
+                v = 0.0;
+            }
+            xi.value = v;
+        }
+        xi.last_modified = iteration;
+    }
+}
+
+/// A standard normal number from two uniforms (Box–Muller).
+fn gaussian(u1: f32, u2: f32) -> f32 {
+    let r = (-2.0 * (1.0 - u1).ln()).sqrt();
+    r * (std::f32::consts::TAU * u2).cos()
+}
+
+impl Sampler for MltSampler {
+    fn next_1d(&mut self) -> f32 {
+        let index = self.stream + STREAM_COUNT * self.sample_index;
+        self.sample_index += 1;
+        self.ensure_ready(index);
+        self.x[index].value
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(s: &mut MltSampler, stream: usize, n: usize) -> Vec<f32> {
+        s.start_stream(stream);
+        (0..n).map(|_| s.next_1d()).collect()
+    }
+
+    #[test]
+    fn reject_restores_values_and_stamps_exactly() {
+        let mut s = MltSampler::new(3, 7, 7, 0.01, 0.3);
+        read(&mut s, CAMERA_STREAM, 6);
+        s.accept();
+        let mut rejected_large = false;
+        let mut rejected_small = false;
+        for i in 0..200 {
+            s.start_iteration();
+            let before = s.state().to_vec();
+            let before_iteration = s.iteration;
+            // Paths of varying length, so some dimensions are new and some are stale.
+            read(&mut s, CAMERA_STREAM, 2 + i % 7);
+            read(&mut s, LIGHT_STREAM, 1 + i % 5);
+            if i % 3 == 0 {
+                let large = s.large_step();
+                s.reject();
+                rejected_large |= large;
+                rejected_small |= !large;
+                let after = s.state();
+                for (k, b) in before.iter().enumerate() {
+                    assert_eq!(b.value.to_bits(), after[k].value.to_bits(), "dim {k}");
+                    assert_eq!(b.last_modified, after[k].last_modified, "dim {k}");
+                }
+                // Dimensions first read by the rejected proposal are unread again.
+                for a in &after[before.len()..] {
+                    assert_eq!(a.last_modified, UNREAD);
+                }
+                assert_eq!(s.iteration, before_iteration - 1);
+            } else {
+                s.accept();
+            }
+        }
+        assert!(rejected_large && rejected_small);
+    }
+
+    /// The wrapped difference of dimension 1 between iteration 0 and iteration k+1 when it is read
+    /// only at the end (lazy) or at every iteration (eager), over many chains.
+    fn dim1_steps(k: usize, eager: bool, chains: u64) -> Vec<f64> {
+        (0..chains)
+            .map(|c| {
+                let mut s = MltSampler::new(11, c, c, 0.01, 0.0);
+                let v0 = read(&mut s, CAMERA_STREAM, 2)[1];
+                s.accept();
+                for _ in 0..k {
+                    s.start_iteration();
+                    read(&mut s, CAMERA_STREAM, if eager { 2 } else { 1 });
+                    s.accept();
+                }
+                s.start_iteration();
+                let v1 = read(&mut s, CAMERA_STREAM, 2)[1];
+                let mut d = v1 as f64 - v0 as f64;
+                d -= d.round();
+                d
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lazy_small_steps_match_eager_ones_in_distribution() {
+        let (k, n) = (15, 20_000);
+        let stats = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64;
+            (m, var)
+        };
+        let (ml, vl) = stats(&dim1_steps(k, false, n));
+        let (me, ve) = stats(&dim1_steps(k, true, n));
+        let expected = 0.01f64.powi(2) * (k + 1) as f64;
+        // Standard error of a variance estimate is √(2/n) ≈ 1%; of a mean σ/√n.
+        for v in [vl, ve] {
+            assert!((v / expected - 1.0).abs() < 0.05, "{v} vs {expected}");
+        }
+        assert!((vl / ve - 1.0).abs() < 0.07, "lazy {vl} eager {ve}");
+        let se = (expected / n as f64).sqrt();
+        assert!(ml.abs() < 4.0 * se && me.abs() < 4.0 * se, "{ml} {me}");
+    }
+
+    #[test]
+    fn streams_keep_light_dimensions_when_camera_length_changes() {
+        let mut a = MltSampler::new(5, 1, 2, 0.01, 0.3);
+        let mut b = MltSampler::new(5, 1, 2, 0.01, 0.3);
+        for i in 0..100usize {
+            if i > 0 {
+                a.start_iteration();
+                b.start_iteration();
+            }
+            read(&mut a, CAMERA_STREAM, 1 + i % 3);
+            read(&mut b, CAMERA_STREAM, 1 + (i * 7) % 9);
+            let la = read(&mut a, LIGHT_STREAM, 4);
+            let lb = read(&mut b, LIGHT_STREAM, 4);
+            assert_eq!(la, lb, "iteration {i}");
+            if i % 4 == 1 {
+                a.reject();
+                b.reject();
+            } else {
+                a.accept();
+                b.accept();
+            }
+        }
+    }
+
+    #[test]
+    fn values_stay_in_unit_interval() {
+        let mut s = MltSampler::new(9, 0, 0, 0.3, 0.3);
+        for _ in 0..1000 {
+            s.start_iteration();
+            for v in read(&mut s, CONNECTION_STREAM, 8) {
+                assert!((0.0..1.0).contains(&v));
+            }
+            s.accept();
+        }
+    }
+}

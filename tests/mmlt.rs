@@ -1,0 +1,348 @@
+//! `mixmc-mmlt` as a whole tool: MMLT converges to BPT's image (beauty with `--include-direct`,
+//! indirect light by default, α·indirect with a mask, and with Kelemen's MIS), is bit-identical
+//! across thread counts, and reports bad input in one line.
+
+mod util;
+
+use mixmc::exrio::ExrImage;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+use util::*;
+
+const CORNELL: &str = "scenes/cornell-box-tiny.json";
+const CAUSTIC: &str = "scenes/caustic-tiny.json";
+
+/// BPT references, rendered once per scene for the whole test binary: (dir, beauty, indirect).
+fn reference(scene: &str) -> (PathBuf, PathBuf) {
+    static DIR: OnceLock<TempDir> = OnceLock::new();
+    static DONE: OnceLock<Mutex<HashMap<String, (PathBuf, PathBuf)>>> = OnceLock::new();
+    let dir = DIR.get_or_init(|| TempDir::new("mmlt-refs"));
+    let done = DONE.get_or_init(|| Mutex::new(HashMap::new()));
+    let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(r) = done.get(scene) {
+        return r.clone();
+    }
+    let stem = Path::new(scene)
+        .file_stem()
+        .unwrap()
+        .to_string_lossy()
+        .into_owned();
+    let full = dir.join(&format!("{stem}-bpt.exr"));
+    run_ok(
+        "mixmc-omc",
+        &[
+            &fixture(scene),
+            "-o",
+            full.to_str().unwrap(),
+            "--method",
+            "bpt",
+            "--spp",
+            "256",
+            "--seed",
+            "99",
+            "-q",
+        ],
+    );
+    // The indirect AOV as R,G,B, so it compares channel for channel with MMLT's output.
+    let img = ExrImage::read(&full).unwrap();
+    let mut ind = ExrImage::new(img.width, img.height);
+    ind.add_rgb(
+        "",
+        ["R", "G", "B"],
+        &img.require_rgb(["indirect.R", "indirect.G", "indirect.B"])
+            .unwrap(),
+    );
+    let ind_path = dir.join(&format!("{stem}-bpt-indirect.exr"));
+    ind.write(&ind_path, false).unwrap();
+    done.insert(scene.to_string(), (full.clone(), ind_path.clone()));
+    (full, ind_path)
+}
+
+fn mmlt(scene: &str, out: &Path, extra: &[&str]) -> ExrImage {
+    let mut args = vec![scene, "-o", out.to_str().unwrap(), "-q"];
+    args.extend_from_slice(extra);
+    run_ok("mixmc-mmlt", &args);
+    ExrImage::read(out).unwrap()
+}
+
+/// compare_images.py's verdict at the tolerances (image mean 2%, 32×32 blocks 5%).
+fn assert_close(a: &Path, b: &Path) {
+    let out = cmd_output(python_tool("compare_images.py").arg(a).arg(b).args([
+        "--mean-tol",
+        "0.02",
+        "--block-tol",
+        "0.05",
+    ]));
+    assert!(
+        out.status.success(),
+        "{} differs from {}\n{}",
+        a.display(),
+        b.display(),
+        show(&out)
+    );
+}
+
+fn converges(scene: &str, name: &str, extra: &[&str], against_beauty: bool) {
+    let dir = TempDir::new(name);
+    let (beauty, indirect) = reference(scene);
+    let out = dir.join("mcmc.exr");
+    // Paths through the glass sphere mix slowly with σ = 0.01: the caustic scene needs more
+    // mutations for its 32×32 blocks to settle within 5%. Its b also has a heavy tail (a caustic
+    // seen through the glass is made only by s = 0): over seeds 1–6 at 1024 mutations/px the image
+    // mean is off by −1.7, −0.1, +0.2, +2.1, −1.3, −1.7% against 2048-spp BPT, so this seed's
+    // margin is not that of every seed; the output is deterministic, so the test is not flaky.
+    let mpp = if scene == CAUSTIC { "1024" } else { "512" };
+    let mut args = vec!["--mutations-per-pixel", mpp, "--seed", "3"];
+    args.extend_from_slice(extra);
+    mmlt(&fixture(scene), &out, &args);
+    assert_close(&out, if against_beauty { &beauty } else { &indirect });
+}
+
+#[test]
+fn indirect_converges_to_bpt_indirect_cornell() {
+    converges(CORNELL, "ind-cornell", &[], false);
+}
+
+#[test]
+fn indirect_converges_to_bpt_indirect_caustic() {
+    converges(CAUSTIC, "ind-caustic", &[], false);
+}
+
+#[test]
+fn include_direct_converges_to_bpt_beauty_cornell() {
+    converges(CORNELL, "all-cornell", &["--include-direct"], true);
+}
+
+#[test]
+fn include_direct_converges_to_bpt_beauty_caustic() {
+    converges(CAUSTIC, "all-caustic", &["--include-direct"], true);
+}
+
+#[test]
+fn kelemen_mis_converges_to_bpt_indirect_cornell() {
+    converges(CORNELL, "kel-cornell", &["--kelemen-mis"], false);
+}
+
+#[test]
+fn kelemen_mis_converges_to_bpt_indirect_caustic() {
+    converges(CAUSTIC, "kel-caustic", &["--kelemen-mis"], false);
+}
+
+#[test]
+fn masked_render_estimates_alpha_times_indirect() {
+    let dir = TempDir::new("masked");
+    // The Cornell box: on the caustic scene one bright bootstrap sample can still move b by up to
+    // ~7% at this budget (its weights have a heavy tail), more than the 3% asked here.
+    let (_, indirect) = reference(CORNELL);
+    let ind = ExrImage::read(&indirect).unwrap();
+    let (w, h) = (ind.width, ind.height);
+    // α = 1 on the left half, ε = 0.1 on the right.
+    let eps = 0.1f32;
+    let alpha: Vec<f32> = (0..w * h)
+        .map(|p| if p % w < w / 2 { 1.0 } else { eps })
+        .collect();
+    let mut mask = ExrImage::new(w, h);
+    mask.add("alpha", alpha.clone());
+    let mask_path = dir.join("mask.exr");
+    mask.write(&mask_path, false).unwrap();
+    let out = dir.join("mcmc.exr");
+    let img = mmlt(
+        &fixture(CORNELL),
+        &out,
+        &[
+            "--mask",
+            mask_path.to_str().unwrap(),
+            "--mutations-per-pixel",
+            "512",
+        ],
+    );
+    let rgb = img.require_rgb(["R", "G", "B"]).unwrap();
+    let reference = ind.require_rgb(["R", "G", "B"]).unwrap();
+    for (region, a) in [("α = 1", 1.0f32), ("α = ε", eps)] {
+        for c in 0..3 {
+            let (mut got, mut want) = (0.0f64, 0.0f64);
+            for p in (0..w * h).filter(|&p| alpha[p] == a) {
+                got += rgb[p][c] as f64;
+                want += (a * reference[p][c]) as f64;
+            }
+            let rel = (got / want - 1.0).abs();
+            assert!(rel < 0.03, "{region}, channel {c}: {got} vs {want} ({rel})");
+        }
+    }
+    assert_eq!(
+        img.text_attr("mixmc.mask").as_deref(),
+        Some(mask_path.to_str().unwrap())
+    );
+    assert_eq!(
+        img.text_attr("mixmc.mask_hash"),
+        Some(mixmc::fingerprint::alpha_hash(w, h, &alpha))
+    );
+}
+
+#[test]
+fn same_seed_is_bit_identical_for_any_thread_count() {
+    let dir = TempDir::new("mmlt-threads");
+    let scene = fixture(CORNELL);
+    let args = [
+        "--mutations-per-pixel",
+        "8",
+        "--bootstrap",
+        "5000",
+        "--seed",
+        "5",
+    ];
+    let mut one = args.to_vec();
+    one.extend(["--threads", "1"]);
+    let mut two = args.to_vec();
+    two.extend(["--threads", "2"]);
+    let a = mmlt(&scene, &dir.join("a.exr"), &one);
+    let b = mmlt(&scene, &dir.join("b.exr"), &two);
+    for ch in ["R", "G", "B"] {
+        let (x, y) = (a.require(ch).unwrap(), b.require(ch).unwrap());
+        assert!(
+            x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
+            "channel {ch} differs between 1 and 2 threads"
+        );
+    }
+    assert!(a.require("R").unwrap().iter().any(|v| *v > 0.0));
+    for key in ["mixmc.b", "mixmc.acceptance", "mixmc.mutations"] {
+        assert_eq!(a.float_attr(key), b.float_attr(key), "{key}");
+    }
+    assert_eq!(a.float_attr("mixmc.mutations"), Some(8.0 * 64.0 * 64.0));
+    assert_eq!(a.float_attr("mixmc.mutations_per_pixel"), Some(8.0));
+    assert_eq!(a.text_attr("mixmc.tool").as_deref(), Some("mixmc-mmlt"));
+    assert_eq!(a.text_attr("mixmc.partial").as_deref(), Some("false"));
+    assert!(a.text_attr("mixmc.mask").is_none());
+    // Another seed is another estimate.
+    let c = mmlt(
+        &scene,
+        &dir.join("c.exr"),
+        &[
+            "--mutations-per-pixel",
+            "8",
+            "--bootstrap",
+            "5000",
+            "--seed",
+            "6",
+        ],
+    );
+    assert_ne!(a.require("R").unwrap(), c.require("R").unwrap());
+}
+
+#[test]
+fn bad_masks_are_one_line_errors_naming_the_file() {
+    let dir = TempDir::new("mmlt-bad");
+    let scene = fixture(CORNELL);
+    let out = dir.join("o.exr");
+    let wrong_size = dir.join("small.exr");
+    let mut m = ExrImage::new(8, 8);
+    m.add("alpha", vec![1.0; 64]);
+    m.write(&wrong_size, false).unwrap();
+    let no_alpha = dir.join("noalpha.exr");
+    let mut m = ExrImage::new(64, 64);
+    m.add("weight", vec![1.0; 64 * 64]);
+    m.write(&no_alpha, false).unwrap();
+    for mask in [&wrong_size, &no_alpha] {
+        let r = run(
+            "mixmc-mmlt",
+            &[
+                &scene,
+                "-o",
+                out.to_str().unwrap(),
+                "--mask",
+                mask.to_str().unwrap(),
+                "-q",
+            ],
+        );
+        assert_eq!(r.status.code(), Some(2), "{}", show(&r));
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(mask.to_str().unwrap()), "{err}");
+    }
+    assert!(!out.exists());
+    // A mask below 0.05 renders, with a warning.
+    let tiny = dir.join("tiny.exr");
+    let mut m = ExrImage::new(64, 64);
+    m.add("alpha", vec![0.01; 64 * 64]);
+    m.write(&tiny, false).unwrap();
+    let r = run(
+        "mixmc-mmlt",
+        &[
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--mask",
+            tiny.to_str().unwrap(),
+            "-q",
+            "--mutations-per-pixel",
+            "1",
+            "--bootstrap",
+            "1000",
+        ],
+    );
+    assert!(r.status.success(), "{}", show(&r));
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("warning"),
+        "{}",
+        show(&r)
+    );
+}
+
+#[test]
+fn time_budget_and_sigint_give_scaled_images() {
+    let dir = TempDir::new("mmlt-time");
+    let scene = fixture(CORNELL);
+    let (_, indirect) = reference(CORNELL);
+    let ind = ExrImage::read(&indirect).unwrap();
+    let mean = |img: &ExrImage| {
+        let g = img.require("G").unwrap();
+        g.iter().map(|v| *v as f64).sum::<f64>() / g.len() as f64
+    };
+    let want = mean(&ind);
+    let timed = mmlt(
+        &scene,
+        &dir.join("t.exr"),
+        &["--time", "2", "--bootstrap", "10000"],
+    );
+    let secs = timed.float_attr("mixmc.seconds").unwrap();
+    assert!(secs <= 2.04, "{secs} s for --time 2");
+    assert!(timed.float_attr("mixmc.mutations_per_pixel").unwrap() >= 1.0);
+    assert!(
+        (mean(&timed) / want - 1.0).abs() < 0.1,
+        "{} vs {want}",
+        mean(&timed)
+    );
+
+    let out = dir.join("partial.exr");
+    let mut child = std::process::Command::new(bin("mixmc-mmlt"))
+        .args([
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--mutations-per-pixel",
+            "1000000",
+            "--bootstrap",
+            "10000",
+            "-q",
+        ])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(2000));
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    let img = ExrImage::read(&out).unwrap();
+    assert_eq!(img.text_attr("mixmc.partial").as_deref(), Some("true"));
+    let mpp = img.float_attr("mixmc.mutations_per_pixel").unwrap();
+    assert!((1.0..1e6).contains(&mpp), "{mpp}");
+    // Scaled by the mutations actually done: the partial image estimates the same light.
+    assert!(
+        (mean(&img) / want - 1.0).abs() < 0.1,
+        "{} vs {want}",
+        mean(&img)
+    );
+}

@@ -105,7 +105,7 @@ fn open_interval(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
 /// Barycentrics (of v1 and v2) where the ray meets the triangle's plane, by Möller–Trumbore.
 /// obvhs' traversal reports only t, so they are computed once, for the nearest hit.
 #[inline]
-fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
+pub fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
     let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
     let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
     let p = d.cross(e2);

@@ -16,7 +16,7 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3A};
 use handwritten::Handwritten;
-use mixmc::accel::{Bvh, Hit, Ray};
+use mixmc::accel::{Bvh, Hit, Ray, barycentrics};
 use mixmc::camera::Camera;
 use mixmc::math::{Frame, Vec3, cosine_hemisphere};
 use mixmc::rng::{Rng, Sampler};
@@ -152,18 +152,6 @@ fn obvhs_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
         0f32.next_up(),
         t_max.next_down(),
     )
-}
-
-/// Barycentrics of the one triangle that was hit (Möller–Trumbore, as `accel` reports them):
-/// obvhs' traversal returns only t.
-fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
-    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
-    let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
-    let p = d.cross(e2);
-    let inv_det = 1.0 / e1.dot(p);
-    let s = o - tri.v0;
-    let q = s.cross(e1);
-    (s.dot(p) * inv_det, d.dot(q) * inv_det)
 }
 
 struct ObvhsCw {

@@ -54,26 +54,37 @@ impl RenderArgs {
     }
 
     pub fn max_depth(&self, scene_default: u32) -> Result<u32> {
-        match self.max_depth {
-            Some(d) if d > MAX_DEPTH_LIMIT => Err(Error::new(format!(
-                "--max-depth {d} exceeds {MAX_DEPTH_LIMIT}"
-            ))),
-            Some(d) => Ok(d),
-            None => Ok(scene_default),
-        }
+        max_depth(self.max_depth, scene_default)
     }
 
     /// Size rayon's global pool; call once, before any parallel work.
     pub fn init_threads(&self) -> Result<()> {
-        if let Some(n) = self.threads {
-            if n == 0 {
-                return Err(Error::new("--threads must be at least 1"));
-            }
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build_global()
-                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
-        }
-        Ok(())
+        init_threads(self.threads)
     }
+}
+
+/// `--max-depth`, checked, or the scene's own.
+pub fn max_depth(asked: Option<u32>, scene_default: u32) -> Result<u32> {
+    match asked {
+        Some(d) if d > MAX_DEPTH_LIMIT => Err(Error::new(format!(
+            "--max-depth {d} exceeds {MAX_DEPTH_LIMIT}"
+        ))),
+        Some(d) => Ok(d),
+        None => Ok(scene_default),
+    }
+}
+
+/// Size rayon's global pool to `--threads` (all cores when absent); call once, before any
+/// parallel work.
+pub fn init_threads(threads: Option<usize>) -> Result<()> {
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::new("--threads must be at least 1"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
+    }
+    Ok(())
 }

@@ -17,6 +17,7 @@ pub mod mask;
 pub mod math;
 pub mod merge;
 pub mod metrics;
+pub mod mix;
 pub mod mmlt;
 pub mod omc;
 pub mod output;
@@ -25,5 +26,6 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod signal;
+pub mod study;
 
 pub use error::{Error, Result};

@@ -3,7 +3,7 @@
 use crate::exrio::ExrImage;
 use crate::film::{GBuffer, omc_image};
 use crate::integrators::Method;
-use crate::render::{Budget, run_passes};
+use crate::render::{Budget, Rendered, run_passes};
 use crate::scene::Scene;
 
 /// Everything that decides an OMC render's values.
@@ -22,8 +22,13 @@ pub fn render(scene: &Scene, s: &OmcSettings) -> ExrImage {
     let r = run_passes(w, h, s.budget, s.method.name(), s.quiet, |pass, film| {
         s.method.render_pass(scene, s.max_depth, s.seed, pass, film)
     });
-    let gbuf = GBuffer::trace(scene);
-    let mut img = omc_image(&r.film, &gbuf, r.passes);
+    aov_image(scene, s, &r, &GBuffer::trace(scene))
+}
+
+/// The AOV file of a render (finished, interrupted or a snapshot): sums normalised by its pass
+/// count, the G-buffer, and the header that says how it was made.
+pub fn aov_image(scene: &Scene, s: &OmcSettings, r: &Rendered, gbuf: &GBuffer) -> ExrImage {
+    let mut img = omc_image(&r.film, gbuf, r.passes);
     img.set_text("mixmc.tool", "mixmc-omc");
     img.set_text("mixmc.method", s.method.name());
     img.set_text("mixmc.scene", scene.path.display().to_string());

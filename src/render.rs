@@ -31,12 +31,38 @@ pub fn run_passes(
     budget: Budget,
     label: &str,
     quiet: bool,
+    pass: impl FnMut(u64, &mut Film),
+) -> Rendered {
+    let start = Rendered {
+        film: Film::new(width, height),
+        passes: 0,
+        seconds: 0.0,
+        partial: false,
+    };
+    continue_passes(start, budget, u64::MAX, label, quiet, pass)
+}
+
+/// Go on with a render: passes `prev.passes, prev.passes + 1, …` are added to its film until this
+/// call's `budget` is spent, the render holds `cap` passes, or the user interrupts. The result is
+/// the same film as one longer run, so a snapshot can be taken at any pass count and the render
+/// continued (the main job's mask is built from such a snapshot).
+pub fn continue_passes(
+    prev: Rendered,
+    budget: Budget,
+    cap: u64,
+    label: &str,
+    quiet: bool,
     mut pass: impl FnMut(u64, &mut Film),
 ) -> Rendered {
-    let mut film = Film::new(width, height);
+    let Rendered {
+        mut film,
+        passes: first,
+        seconds: before,
+        ..
+    } = prev;
     let start = Instant::now();
     let progress = match budget {
-        Budget::Passes(n) => Progress::new(n, label, "spp", quiet),
+        Budget::Passes(n) => Progress::new(n.min(cap.saturating_sub(first)), label, "spp", quiet),
         Budget::Seconds(s) => Progress::new((s * 10.0).ceil() as u64, label, "×0.1 s", quiet),
     };
     let mut done = 0u64;
@@ -44,6 +70,7 @@ pub fn run_passes(
     loop {
         let elapsed = start.elapsed().as_secs_f64();
         match budget {
+            _ if first + done >= cap => break,
             Budget::Passes(n) if done >= n => break,
             // Stop when the next pass, at the mean pass time so far, would overrun the budget.
             Budget::Seconds(s) if done > 0 && elapsed + elapsed / done as f64 > s => break,
@@ -53,7 +80,7 @@ pub fn run_passes(
             partial = true;
             break;
         }
-        pass(done, &mut film);
+        pass(first + done, &mut film);
         done += 1;
         progress.set(match budget {
             Budget::Passes(_) => done,
@@ -63,8 +90,8 @@ pub fn run_passes(
     progress.finish();
     Rendered {
         film,
-        passes: done,
-        seconds: start.elapsed().as_secs_f64(),
+        passes: first + done,
+        seconds: before + start.elapsed().as_secs_f64(),
         partial,
     }
 }

@@ -2,11 +2,11 @@
 //! indirect light and G-buffer; see `mixmc::mask` for the steps and the default's spike gate.
 
 use clap::Parser;
-use mixmc::cli::main_with;
+use mixmc::cli::{init_threads, main_with};
 use mixmc::error::{Error, Result};
 use mixmc::exrio::ExrImage;
-use mixmc::mask::{Channels, Mask, MaskInput, MaskParams, build, inspect};
-use std::path::{Path, PathBuf};
+use mixmc::mask::{Channels, MaskInput, MaskParams, build, inspect, mask_image};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -147,56 +147,10 @@ fn fov(args: &Args, img: &ExrImage) -> (f32, &'static str) {
     }
 }
 
-fn output_image(img: &ExrImage, m: &Mask, p: &MaskParams, input: &Path) -> ExrImage {
-    let mut out = ExrImage::new(m.width, m.height);
-    out.add("alpha", m.alpha.clone());
-    out.add(
-        "segment",
-        m.segments.labels.iter().map(|&l| l as f32).collect(),
-    );
-    out.add("noise", m.noise.clone());
-    out.add("weight", m.weight.clone());
-    out.set_text("mixmc.tool", "mixmc-mask");
-    out.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
-    out.set_text("mixmc.mask.input", input.display().to_string());
-    if let Some(scene) = img.text_attr("mixmc.scene") {
-        out.set_text("mixmc.scene", scene);
-    }
-    out.set_text("mixmc.mask.mode", if p.paper { "paper" } else { "robust" });
-    for (k, v) in [
-        ("window", p.window as f64),
-        ("top", p.top),
-        ("k", p.k),
-        ("normal_tol", p.normal_tol as f64),
-        ("depth_tol", p.depth_tol as f64),
-        ("fov_y", p.fov_y as f64),
-        ("epsilon", p.epsilon as f64),
-        ("switch", p.switch),
-        ("contrast", p.contrast as f64),
-        ("min_level", p.min_level as f64),
-        ("complex_fraction", m.complex_fraction),
-        ("segments", m.segments.count as f64),
-        ("complex_segments", m.complex_segments as f64),
-    ] {
-        out.set_float(&format!("mixmc.mask.{k}"), v);
-    }
-    out.set_text(
-        "mixmc.mask.switched",
-        if m.switched { "true" } else { "false" },
-    );
-    out
-}
-
 fn main() -> ExitCode {
     main_with("mixmc-mask", || {
         let args = Args::parse();
-        if let Some(n) = args.threads {
-            check(n > 0, "--threads must be at least 1")?;
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build_global()
-                .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
-        }
+        init_threads(args.threads)?;
         let img = ExrImage::read(&args.input)?;
         let (fov_y, fov_source) = fov(&args, &img);
         let params = args.params(fov_y)?;
@@ -219,7 +173,13 @@ fn main() -> ExitCode {
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &input, &mask)?;
         }
-        output_image(&img, &mask, &params, &args.input).write(&args.output, false)?;
+        mask_image(
+            &mask,
+            &params,
+            &args.input.display().to_string(),
+            img.text_attr("mixmc.scene"),
+        )
+        .write(&args.output, false)?;
         let switch_note = if mask.switched {
             format!(
                 "; above --switch {}: MCMC only, alpha = 1 everywhere",

@@ -3,15 +3,17 @@
 //! weights of the noisiest pixels, G-buffer segments, fill, clamp, binarise.
 //!
 //! `median` is the fast w×w median filter, `segment` the G-buffer segmentation, `select` exact
-//! order statistics, `pipeline` the steps themselves, `input` reads the AOVs from any EXR and
-//! `inspect` writes one PNG per step.
+//! order statistics, `pipeline` the steps themselves, `input` reads the AOVs from any EXR,
+//! `inspect` writes one PNG per step and `output` the mask file.
 
 pub mod input;
 pub mod inspect;
 pub mod median;
+pub mod output;
 pub mod pipeline;
 pub mod segment;
 pub mod select;
 
 pub use input::{Channels, MaskInput};
+pub use output::mask_image;
 pub use pipeline::{Mask, MaskParams, build};

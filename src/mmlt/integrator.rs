@@ -66,11 +66,16 @@ impl Mask {
                 ),
             ));
         }
-        Ok(Mask {
+        Ok(Mask::from_alpha(path, width, height, alpha))
+    }
+
+    /// A mask already in memory (the main job's own), named `path` in the output's header.
+    pub fn from_alpha(path: &Path, width: usize, height: usize, alpha: Vec<f32>) -> Mask {
+        Mask {
             path: path.display().to_string(),
             hash: alpha_hash(width, height, &alpha),
             alpha,
-        })
+        }
     }
 
     /// The smallest α: below ~0.05 the chain rarely visits those pixels and `b` is poorly

@@ -1,0 +1,162 @@
+//! `mixmc-mix SCENE --time T -o final.exr`: the main job — OMC, the mask from an early OMC
+//! snapshot, MMLT weighted by the mask, and eq. (2), in one process at a time budget.
+
+use clap::Parser;
+use mixmc::cli::{init_threads, main_with, max_depth};
+use mixmc::error::Error;
+use mixmc::film::write_beauty_png;
+use mixmc::integrators::Method;
+use mixmc::mask::MaskParams;
+use mixmc::mix::{KEEP_NAMES, MixSettings, Split, mix};
+use mixmc::scene::Scene;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+const TOOL: &str = "mixmc-mix";
+
+#[derive(Parser)]
+#[command(
+    name = TOOL,
+    version,
+    about = "Render a scene with the paper's mix of ordinary and Markov chain Monte Carlo at a time budget",
+    after_help = "Phases: OMC renders (the mask is built from its snapshot at --mask-spp passes), then \
+MMLT renders the indirect light weighted by the mask, then eq. (2) composites with FXAA on the mask's \
+borders. Above --switch complex pixels the result is MCMC-only (D_omc + I_mcmc). --keep DIR writes \
+omc-snapshot.exr, omc.exr, mask.exr and mcmc.exr as the separate tools would."
+)]
+struct Args {
+    /// Scene file (JSON, DESIGN §4).
+    scene: PathBuf,
+    /// Output EXR (R,G,B).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Wall-clock budget of the whole job, in seconds.
+    #[arg(long, default_value_t = 60.0)]
+    time: f64,
+    /// The OMC method (the paper: ibpt for the Cornell scenes, lt for room and bathroom).
+    #[arg(long, value_enum, default_value_t = Method::Ibpt)]
+    omc: Method,
+    /// How the budget is split between OMC and MMLT.
+    #[arg(long, value_enum, default_value_t = Split::Half)]
+    split: Split,
+    /// OMC passes in the snapshot the mask is built from (fewer if half the budget runs out).
+    #[arg(long, default_value_t = 64)]
+    mask_spp: u64,
+    /// The literal paper mask (no spike gate).
+    #[arg(long)]
+    paper_mask: bool,
+    /// Above this fraction of complex pixels render MCMC only.
+    #[arg(long, default_value_t = 0.35)]
+    switch: f64,
+    /// MMLT chains.
+    #[arg(long, default_value_t = 256)]
+    chains: usize,
+    /// MMLT bootstrap samples per rendered depth.
+    #[arg(long, default_value_t = 100_000)]
+    bootstrap: usize,
+    /// Skip FXAA on the mask's borders.
+    #[arg(long)]
+    no_fxaa: bool,
+    /// Also write an sRGB preview PNG.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Write every intermediate file into this directory (created if missing).
+    #[arg(long)]
+    keep: Option<PathBuf>,
+    /// Seed of every random number.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Largest path depth [default: the scene's max_depth].
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// No progress bars.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+fn main() -> ExitCode {
+    main_with(TOOL, || {
+        let args = Args::parse();
+        init_threads(args.threads)?;
+        if !(args.switch > 0.0 && args.switch <= 1.0) {
+            return Err(Error::new(format!(
+                "--switch {} must be in (0, 1]",
+                args.switch
+            )));
+        }
+        if args.mask_spp == 0 || args.chains == 0 || args.bootstrap == 0 {
+            return Err(Error::new(
+                "--mask-spp, --chains and --bootstrap must be at least 1",
+            ));
+        }
+        let scene = Scene::load(&args.scene)?;
+        let settings = MixSettings {
+            omc: args.omc,
+            seconds: args.time,
+            split: args.split,
+            mask_spp: args.mask_spp,
+            mask: MaskParams {
+                paper: args.paper_mask,
+                switch: args.switch,
+                ..MaskParams::default()
+            },
+            seed: args.seed,
+            max_depth: max_depth(args.max_depth, scene.max_depth)?,
+            chains: args.chains,
+            bootstrap: args.bootstrap,
+            fxaa: !args.no_fxaa,
+            quiet: args.quiet,
+        };
+        if let Some(dir) = &args.keep {
+            std::fs::create_dir_all(dir).map_err(|e| Error::in_file(dir, e.to_string()))?;
+        }
+        mixmc::signal::install();
+        let dir = args.keep.clone().unwrap_or_default();
+        let m = mix(&scene, &settings, &dir)?;
+        if let Some(dir) = &args.keep {
+            let files = [Some(&m.snapshot), Some(&m.omc), Some(&m.mask), m.mcmc.as_ref()];
+            for (name, img) in KEEP_NAMES.iter().zip(files) {
+                if let Some(img) = img {
+                    img.write(&Path::new(dir).join(name), false)?;
+                }
+            }
+        }
+        m.image.write(&args.output, false)?;
+        if let Some(png) = &args.png {
+            write_beauty_png(png, &m.image)?;
+        }
+        let how = if m.switched {
+            "MCMC only".to_string()
+        } else {
+            format!("{:.2}% complex pixels", 100.0 * m.complex_fraction)
+        };
+        println!(
+            "{}: {how}; {} {} spp in {:.1} s, mask {:.2} s, MMLT {} mutations/px in {:.1} s \
+             (share {:.2}); {:.1} s in all{}",
+            args.output.display(),
+            settings.omc.name(),
+            m.omc.float_attr("mixmc.spp").unwrap_or(0.0),
+            m.phases.omc,
+            m.phases.mask,
+            m.image
+                .float_attr("mixmc.mutations_per_pixel")
+                .unwrap_or(0.0),
+            m.phases.mmlt,
+            m.mcmc_share,
+            m.phases.total,
+            if m.partial {
+                " (interrupted: partial image)"
+            } else {
+                ""
+            }
+        );
+        Ok(if m.partial {
+            ExitCode::from(130)
+        } else {
+            ExitCode::SUCCESS
+        })
+    })
+}

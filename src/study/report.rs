@@ -1,0 +1,281 @@
+//! The study's numbers as files: `results.csv` (one row per render) and Markdown tables in the
+//! layout of the paper's Table 1, with the spread over seeds beside every mean.
+
+use super::{PAPER_TABLE1, Record, Results};
+use crate::metrics::Metric;
+use std::fmt::Write as _;
+
+/// Mean, smallest and largest of a metric over seeds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spread {
+    pub mean: f64,
+    pub min: f64,
+    pub max: f64,
+    pub n: usize,
+}
+
+impl Spread {
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Option<Spread> {
+        let v: Vec<f64> = values.into_iter().collect();
+        if v.is_empty() {
+            return None;
+        }
+        Some(Spread {
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            min: v.iter().copied().fold(f64::INFINITY, f64::min),
+            max: v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            n: v.len(),
+        })
+    }
+
+    /// `mean` or `mean (min–max)` when several seeds ran.
+    fn show(&self, digits: usize) -> String {
+        if self.n > 1 {
+            format!(
+                "{:.d$} ({:.d$}–{:.d$})",
+                self.mean,
+                self.min,
+                self.max,
+                d = digits
+            )
+        } else {
+            format!("{:.d$}", self.mean, d = digits)
+        }
+    }
+}
+
+/// The spread over seeds of one metric for (scene, method, budget).
+pub fn spread(
+    records: &[Record],
+    scene: &str,
+    method: &str,
+    budget: f64,
+    metric: Metric,
+) -> Option<Spread> {
+    Spread::of(
+        records
+            .iter()
+            .filter(|r| r.scene == scene && r.method == method && r.budget == budget)
+            .map(|r| r.scores.get(metric)),
+    )
+}
+
+/// `results.csv`: one row per render.
+pub fn csv(records: &[Record]) -> String {
+    let mut s = String::from(
+        "scene,method,omc,budget_s,seed,seconds,spp,mutations_per_pixel,complex_fraction,mcmc_share,mse_ldr,relmse,flip\n",
+    );
+    for r in records {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{:.3},{},{},{},{},{:.6},{:.6},{:.6}",
+            r.scene,
+            r.method,
+            r.omc,
+            r.budget,
+            r.seed,
+            r.seconds,
+            r.spp,
+            r.mutations_per_pixel,
+            opt(r.complex_fraction),
+            opt(r.mcmc_share),
+            r.scores.mse,
+            r.scores.relmse,
+            r.scores.flip
+        );
+    }
+    s
+}
+
+fn opt(v: f64) -> String {
+    if v.is_nan() {
+        String::new()
+    } else {
+        format!("{v:.4}")
+    }
+}
+
+/// Distinct values in first-seen order.
+fn distinct<T: PartialEq + Clone>(items: impl Iterator<Item = T>) -> Vec<T> {
+    let mut out: Vec<T> = Vec::new();
+    for i in items {
+        if !out.contains(&i) {
+            out.push(i);
+        }
+    }
+    out
+}
+
+/// The paper's Table 1 row for a scene (the tiny twins share their full scene's row).
+fn paper_row(scene: &str) -> Option<(f64, f64, f64, &'static str)> {
+    let base = scene.trim_end_matches("-tiny");
+    PAPER_TABLE1
+        .iter()
+        .find(|r| r.0 == base)
+        .map(|r| (r.1, r.2, r.3, r.4))
+}
+
+/// Markdown: Table 1 (MSE at the largest budget) with the paper's numbers, then every method at
+/// every budget for each metric.
+pub fn markdown(res: &Results) -> String {
+    let records = &res.records;
+    let scenes = distinct(records.iter().map(|r| r.scene.clone()));
+    let budgets = distinct(records.iter().map(|r| r.budget));
+    let largest = budgets.iter().copied().fold(0.0, f64::max);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "### Table 1: MSE (LDR 0–255) at {largest} s, mean (min–max over seeds)\n"
+    );
+    s.push_str(
+        "| scene | OMC | MMLT | ours (mix) | ours / OMC | Kelemen MIS | combination | paper OMC | paper MMLT | paper ours | paper ours / OMC |\n",
+    );
+    s.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for scene in &scenes {
+        let omc = records
+            .iter()
+            .find(|r| &r.scene == scene && r.method == "mix")
+            .map(|r| r.omc.clone())
+            .unwrap_or_else(|| super::paper_omc(scene).name().to_string());
+        let cell = |method: &str| {
+            spread(records, scene, method, largest, Metric::Mse)
+                .map_or("—".to_string(), |v| v.show(2))
+        };
+        let ratio = match (
+            spread(records, scene, &omc, largest, Metric::Mse),
+            spread(records, scene, "mix", largest, Metric::Mse),
+        ) {
+            (Some(o), Some(m)) => format!("{:.2}", m.mean / o.mean),
+            _ => "—".into(),
+        };
+        let paper = paper_row(scene).map_or(
+            ["—".to_string(), "—".into(), "—".into(), "—".into()],
+            |(o, m, x, _)| {
+                [
+                    format!("{o}"),
+                    format!("{m}"),
+                    format!("{x}"),
+                    format!("{:.2}", x / o),
+                ]
+            },
+        );
+        let _ = writeln!(
+            s,
+            "| {scene} | {} ({omc}) | {} | {} | {ratio} | {} | {} + MMLT | {} | {} | {} | {} |",
+            cell(&omc),
+            cell("mmlt"),
+            cell("mix"),
+            cell("kelemen"),
+            omc.to_uppercase(),
+            paper[0],
+            paper[1],
+            paper[2],
+            paper[3],
+        );
+    }
+    for metric in [Metric::Mse, Metric::Flip, Metric::Relmse] {
+        let methods = distinct(records.iter().map(|r| r.method.clone()));
+        let _ = writeln!(
+            s,
+            "\n### {} by budget, mean (min–max over seeds); best per row in bold\n",
+            metric_title(metric)
+        );
+        let _ = write!(s, "| scene | budget (s) |");
+        for m in &methods {
+            let _ = write!(s, " {m} |");
+        }
+        s.push('\n');
+        s.push_str(&"|---".repeat(methods.len() + 2));
+        s.push_str("|\n");
+        for scene in &scenes {
+            for &b in &budgets {
+                let cells: Vec<Option<Spread>> = methods
+                    .iter()
+                    .map(|m| spread(records, scene, m, b, metric))
+                    .collect();
+                let best = cells
+                    .iter()
+                    .flatten()
+                    .map(|v| v.mean)
+                    .fold(f64::INFINITY, f64::min);
+                let _ = write!(s, "| {scene} | {b} |");
+                for c in &cells {
+                    match c {
+                        Some(v) if v.mean == best => {
+                            let _ = write!(s, " **{}** |", v.show(digits(metric)));
+                        }
+                        Some(v) => {
+                            let _ = write!(s, " {} |", v.show(digits(metric)));
+                        }
+                        None => s.push_str(" — |"),
+                    }
+                }
+                s.push('\n');
+            }
+        }
+    }
+    s
+}
+
+fn metric_title(m: Metric) -> &'static str {
+    match m {
+        Metric::Mse => "MSE (LDR 0–255)",
+        Metric::Relmse => "relMSE",
+        Metric::Flip => "FLIP",
+    }
+}
+
+fn digits(m: Metric) -> usize {
+    match m {
+        Metric::Mse => 2,
+        Metric::Relmse | Metric::Flip => 4,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::Scores;
+
+    fn rec(scene: &str, method: &str, seed: u64, mse: f64) -> Record {
+        Record {
+            scene: scene.into(),
+            method: method.into(),
+            omc: if method == "mmlt" { "" } else { "ibpt" }.into(),
+            budget: 10.0,
+            seed,
+            seconds: 10.0,
+            spp: 1.0,
+            mutations_per_pixel: 0.0,
+            complex_fraction: f64::NAN,
+            mcmc_share: f64::NAN,
+            scores: Scores {
+                mse,
+                relmse: mse / 100.0,
+                flip: mse / 1000.0,
+            },
+        }
+    }
+
+    #[test]
+    fn table_holds_means_spreads_and_the_papers_numbers() {
+        let records = vec![
+            rec("cornell-torus", "ibpt", 1, 10.0),
+            rec("cornell-torus", "ibpt", 2, 14.0),
+            rec("cornell-torus", "mix", 1, 6.0),
+            rec("cornell-torus", "mix", 2, 6.0),
+            rec("cornell-torus", "mmlt", 1, 8.0),
+        ];
+        let md = markdown(&Results {
+            records: records.clone(),
+            showcases: vec![],
+            partial: false,
+        });
+        assert!(md.contains("| cornell-torus | 12.00 (10.00–14.00) (ibpt) | 8.00 | 6.00 (6.00–6.00) | 0.50 |"), "{md}");
+        assert!(md.contains("| 15.4 | 7.28 | 12.5 | 0.81 |"), "{md}");
+        assert!(md.contains("**6.00 (6.00–6.00)**"), "{md}");
+        let c = csv(&records);
+        assert_eq!(c.lines().count(), 6);
+        assert!(c.lines().nth(1).unwrap().starts_with("cornell-torus,ibpt,ibpt,10,1,"));
+    }
+}

@@ -1,0 +1,200 @@
+//! The main job `mixmc-mix`: its files are those the separate tools would write, the switch to
+//! MCMC only, and clean failures.
+
+mod util;
+
+use mixmc::exrio::ExrImage;
+use std::path::Path;
+use util::{TempDir, bin, fixture, run_ok};
+
+fn read(p: &Path) -> ExrImage {
+    ExrImage::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// Small MMLT settings: a tiny scene needs far fewer than the default 100 000 bootstrap samples.
+const FAST: [&str; 6] = ["--bootstrap", "5000", "--chains", "64", "--threads", "2"];
+
+#[test]
+fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
+    let tmp = TempDir::new("mix-keep");
+    let keep = tmp.join("keep");
+    let out = tmp.join("final.exr");
+    let mut args = vec![
+        fixture("scenes/caustic-tiny.json"),
+        "--time".into(),
+        "3".into(),
+        "--mask-spp".into(),
+        "16".into(),
+        "-o".into(),
+        p(&out).into(),
+        "--keep".into(),
+        p(&keep).into(),
+        "-q".into(),
+        // Keep the image a mix (not MCMC only) whatever the snapshot's noise.
+        "--switch".into(),
+        "1".into(),
+    ];
+    args.extend(FAST.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run_ok("mixmc-mix", &args);
+    let fin = read(&out);
+    let snapshot = read(&keep.join("omc-snapshot.exr"));
+    let omc = read(&keep.join("omc.exr"));
+    let mcmc = read(&keep.join("mcmc.exr"));
+    // The snapshot stops at --mask-spp passes, or earlier when half the budget is spent.
+    let snap_spp = snapshot.float_attr("mixmc.spp").unwrap();
+    assert!((1.0..=16.0).contains(&snap_spp), "snapshot {snap_spp} spp");
+    let spp = omc.float_attr("mixmc.spp").unwrap();
+    assert!(spp >= snap_spp, "OMC lost passes after the snapshot: {spp} spp");
+    assert_eq!(fin.float_attr("mixmc.spp"), Some(spp));
+    assert!(mcmc.float_attr("mixmc.mutations_per_pixel").unwrap() >= 1.0);
+    let secs = fin.float_attr("mixmc.seconds").unwrap();
+    assert!(secs < 3.0 * 1.5 + 1.0, "a 3 s job took {secs} s");
+
+    // The mask tool on the kept snapshot gives the kept mask.
+    let mask2 = tmp.join("mask2.exr");
+    run_ok(
+        "mixmc-mask",
+        &[p(&keep.join("omc-snapshot.exr")), "-o", p(&mask2)],
+    );
+    let kept_mask = read(&keep.join("mask.exr"));
+    assert_eq!(
+        read(&mask2).require("alpha").unwrap(),
+        kept_mask.require("alpha").unwrap()
+    );
+
+    // The compositor on the kept files gives the job's image, bit for bit.
+    let fin2 = tmp.join("final2.exr");
+    let out = std::process::Command::new(bin("mixmc-composite"))
+        .args([
+            "--omc",
+            p(&keep.join("omc.exr")),
+            "--mask",
+            p(&keep.join("mask.exr")),
+            "--mcmc",
+            p(&keep.join("mcmc.exr")),
+            "-o",
+            p(&fin2),
+            "--switch",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", util::show(&out));
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("warning"),
+        "the kept files do not fit together: {}",
+        util::show(&out)
+    );
+    let recomposed = read(&fin2);
+    for c in ["R", "G", "B"] {
+        assert_eq!(fin.require(c).unwrap(), recomposed.require(c).unwrap());
+    }
+}
+
+#[test]
+fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
+    let tmp = TempDir::new("mix-switch");
+    let keep = tmp.join("keep");
+    let out = tmp.join("final.exr");
+    // A switch of 0.001 fires on any mask that marks a single segment of the glass scene.
+    let mut args = vec![
+        fixture("scenes/caustic-tiny.json"),
+        "--time".into(),
+        "2".into(),
+        "--mask-spp".into(),
+        "16".into(),
+        "--paper-mask".into(),
+        "--switch".into(),
+        "0.001".into(),
+        "--no-fxaa".into(),
+        "-o".into(),
+        p(&out).into(),
+        "--keep".into(),
+        p(&keep).into(),
+        "-q".into(),
+    ];
+    args.extend(FAST.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run_ok("mixmc-mix", &args);
+    let fin = read(&out);
+    assert_eq!(fin.text_attr("mixmc.switched").as_deref(), Some("true"));
+    let mask = read(&keep.join("mask.exr"));
+    assert!(mask.require("alpha").unwrap().iter().all(|&a| a == 1.0));
+    let omc = read(&keep.join("omc.exr"));
+    let mcmc = read(&keep.join("mcmc.exr"));
+    for (c, d) in ["R", "G", "B"].iter().zip(["direct.R", "direct.G", "direct.B"]) {
+        let expect: Vec<f32> = omc
+            .require(d)
+            .unwrap()
+            .iter()
+            .zip(mcmc.require(c).unwrap())
+            .map(|(a, b)| a + b)
+            .collect();
+        assert_eq!(fin.require(c).unwrap(), expect.as_slice(), "channel {c}");
+    }
+}
+
+#[test]
+fn bad_arguments_are_one_line_errors() {
+    let tmp = TempDir::new("mix-bad");
+    let out = tmp.join("final.exr");
+    for (extra, needle) in [
+        (vec!["--time", "0"], "--time 0 must be a positive"),
+        (vec!["--time", "nan"], "must be a positive"),
+        (vec!["--switch", "2"], "--switch 2 must be in (0, 1]"),
+        (vec!["--mask-spp", "0"], "at least 1"),
+        (vec!["--max-depth", "5000"], "--max-depth 5000 exceeds"),
+    ] {
+        let mut args = vec![fixture("scenes/clean-tiny.json"), "-o".into(), p(&out).into()];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let o = std::process::Command::new(bin("mixmc-mix"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(
+            err.starts_with("mixmc-mix: ") && err.contains(needle) && err.lines().count() == 1,
+            "{extra:?}: {err}"
+        );
+        assert!(!out.exists(), "{extra:?} left an output");
+    }
+}
+
+#[test]
+fn sigint_during_omc_writes_the_omc_image_marked_partial() {
+    let tmp = TempDir::new("mix-sigint");
+    let out = tmp.join("final.exr");
+    let mut child = std::process::Command::new(bin("mixmc-mix"))
+        .args([
+            &fixture("scenes/cornell-box.json"),
+            "-o",
+            p(&out),
+            "--time",
+            "600",
+            "-q",
+        ])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let pid = child.id().to_string();
+    assert!(
+        std::process::Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    let img = read(&out);
+    assert_eq!(img.text_attr("mixmc.partial").as_deref(), Some("true"));
+    assert!(img.float_attr("mixmc.spp").unwrap() >= 1.0);
+    let r = img.require("R").unwrap();
+    let mean = r.iter().sum::<f32>() / r.len() as f32;
+    assert!(mean > 0.05 && mean < 1.0, "mean {mean}");
+}

@@ -2,7 +2,7 @@
 //! eq. (2) with FXAA on the mask's borders, or D + I_mcmc above the MCMC-only switch (DESIGN §5).
 
 use clap::Parser;
-use mixmc::cli::main_with;
+use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::composite::{DEFAULT_SWITCH, Input, Options, composite};
 use mixmc::error::Error;
 use mixmc::exrio::ExrImage;
@@ -51,7 +51,7 @@ fn main() -> ExitCode {
         let omc = ExrImage::read(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
-        let result = composite(
+        let mut result = composite(
             Input {
                 path: &args.omc,
                 image: &omc,
@@ -72,7 +72,8 @@ fn main() -> ExitCode {
         for (file, msg) in &result.warnings {
             eprintln!("{TOOL}: {file}: {msg}");
         }
-        let img = &result.image;
+        let img = &mut result.image;
+        img.set_text(COMMAND_ATTR, command_line());
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
             write_beauty_png(png, img)?;

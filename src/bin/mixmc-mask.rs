@@ -2,7 +2,7 @@
 //! indirect light and G-buffer; see `mixmc::mask` for the steps and the default's spike gate.
 
 use clap::Parser;
-use mixmc::cli::main_with;
+use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::error::{Error, Result};
 use mixmc::exrio::ExrImage;
 use mixmc::mask::{Channels, Mask, MaskInput, MaskParams, build, inspect};
@@ -219,7 +219,9 @@ fn main() -> ExitCode {
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &input, &mask)?;
         }
-        output_image(&img, &mask, &params, &args.input).write(&args.output, false)?;
+        let mut out = output_image(&img, &mask, &params, &args.input);
+        out.set_text(COMMAND_ATTR, command_line());
+        out.write(&args.output, false)?;
         let switch_note = if mask.switched {
             format!(
                 "; above --switch {}: MCMC only, alpha = 1 everywhere",

@@ -164,6 +164,9 @@ def main():
             "block_rel_max": worst, "worst_block_xy": [int(at[1]) * a.block, int(at[0]) * a.block],
             "blocks": int(has.sum()), "blocks_judged": int(judged.sum()), "finite": finite,
             "block_se_rel_max": float(se[judged].max()) if judged.any() else float("nan"),
+            # Shown, never judged: how far the left-out blocks are, in Mitsuba's standard errors.
+            "unjudged_rel_max": float(rel[has & ~judged].max()) if (has & ~judged).any() else float("nan"),
+            "unjudged_z_max": float((rel / se)[has & ~judged].max()) if (has & ~judged).any() else float("nan"),
         }
     mean_worst = max(r["mean_rel"] for r in results.values())
     block_worst = max((r["block_rel_max"] for r in results.values() if r["blocks_judged"]), default=float("nan"))
@@ -181,6 +184,10 @@ def main():
     print(f"left out of the blocks: {int((~keep).sum())} pixels on or beside emitters (matid {ids}); "
           f"{len(unconverged)} blocks where Mitsuba's 3 standard errors exceed {a.block_tol:.0%}: "
           f"{sorted(unconverged)}")
+    if unconverged:
+        print("  (not judged; there the reference differs by up to "
+              + ", ".join(f"{n} {r['unjudged_rel_max']:.1%} = {r['unjudged_z_max']:.1f} se" for n, r in results.items())
+              + ")")
     print(f"{'OK' if ok else 'DIFFERS'}: mean {mean_worst:.3%} (tol {a.mean_tol:.0%}), worst judged block "
           f"{block_worst:.3%} (tol {a.block_tol:.0%})" + ("" if finite else ", non-finite pixels"))
     if a.json:

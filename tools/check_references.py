@@ -33,10 +33,14 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import compare_images  # noqa: E402
+import mitsuba_render  # noqa: E402
 from compare_images import block_means, read_channels, strict  # noqa: E402
 from mitsuba_render import pick_variant  # noqa: E402
 
 PROG = "check_references.py"
+# The helpers' one-line errors name this script, not theirs.
+compare_images.PROG = mitsuba_render.PROG = PROG
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CHANNELS = ("R", "G", "B")
 

@@ -6,26 +6,26 @@
 //! |---|---|---|---|---|
 //! | `mixmc` | one EXR, channels by name (DESIGN §3) | `direct.*` | `indirect.*` | `R,G,B` |
 //! | `cycles` | one multilayer EXR (`ViewLayer.<pass>.*`) | Emit + Env + Σ Dir×Col | Σ Ind×Col | `Combined` |
+//! | `luxcore` | a directory of `<AOV>.exr` + `MATERIAL_ID.png` | EMISSION + DIRECT_* | INDIRECT_* | `RADIANCE_GROUP` |
 //! | `mitsuba` | the `aov` integrator's EXR, then a `max_depth=2` render | second file | full − D | `image.*` |
 //!
 //! Σ runs over Diffuse, Glossy and Transmission. Background pixels get an infinite distance, as
-//! ours: Cycles writes 1e10 there, Mitsuba 0. Mitsuba's full and direct renders share a seed but
+//! ours: Cycles writes 1e10 there, Mitsuba 0, LuxCore +∞ (and white in MATERIAL_ID.png, whose red
+//! channel holds the id: LuxCore writes its integer ids to PNG only). Mitsuba's full and direct renders share a seed but
 //! not every random number (measured on cornell-torus-tiny at 64 spp: full − direct < 0 in 128 of
 //! 4096 pixels, down to −2.0), so its I is a difference of two estimates, negative at places; it is
 //! kept as it is, so that D + I is the full image and the mean stays unbiased.
-//!
-//! LuxCore (`pyluxcore` 2.11.2 from PyPI) is not a preset yet: its render session never reached
-//! its sample count here (see `tools/external/README.md`).
 
 use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Which renderer wrote the input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Preset {
     Mixmc,
     Cycles,
+    Luxcore,
     Mitsuba,
 }
 
@@ -60,6 +60,9 @@ const CYCLES_LAYER: &str = "ViewLayer";
 const CYCLES_COMPONENTS: [&str; 3] = ["Diffuse", "Glossy", "Transmission"];
 /// Cycles writes this distance where the camera ray leaves the scene.
 const CYCLES_MISS: f32 = 1e10;
+const LUX_DIRECT: [&str; 3] = ["EMISSION", "DIRECT_DIFFUSE", "DIRECT_GLOSSY"];
+const LUX_INDIRECT: [&str; 3] = ["INDIRECT_DIFFUSE", "INDIRECT_GLOSSY", "INDIRECT_SPECULAR"];
+const LUX_OTHER: [&str; 3] = ["RADIANCE_GROUP", "DEPTH", "SHADING_NORMAL"];
 
 pub type Rgb = Vec<[f32; 3]>;
 
@@ -68,8 +71,10 @@ pub type Rgb = Vec<[f32; 3]>;
 pub struct Source {
     preset: Preset,
     names: Names,
-    /// `(label, image)`: the label names the file in errors.
+    /// `(label, image)`: the label names the file in errors (LuxCore: its file stem is the AOV).
     files: Vec<(String, ExrImage)>,
+    /// LuxCore's material ids (from its PNG), −1 for the background.
+    lux_matid: Option<Vec<f32>>,
     pub width: usize,
     pub height: usize,
 }
@@ -108,12 +113,13 @@ impl Preset {
         match self {
             Preset::Mixmc => "mixmc",
             Preset::Cycles => "cycles",
+            Preset::Luxcore => "luxcore",
             Preset::Mitsuba => "mitsuba",
         }
     }
 
-    /// Read the files of one render: `mixmc` and `cycles` take one EXR, `mitsuba` the `aov` EXR
-    /// and then the `max_depth=2` EXR.
+    /// Read the files of one render: `mixmc` and `cycles` take one EXR, `luxcore` a directory,
+    /// `mitsuba` the `aov` EXR and then the `max_depth=2` EXR.
     pub fn open(self, paths: &[PathBuf], names: Names) -> Result<Source> {
         let want = match self {
             Preset::Mitsuba => 2,
@@ -126,10 +132,14 @@ impl Preset {
                 if want == 1 { "" } else { "s" },
                 match self {
                     Preset::Mixmc | Preset::Cycles => "one EXR",
+                    Preset::Luxcore => "the directory of LuxCore's AOV files",
                     Preset::Mitsuba => "the aov integrator's EXR, then the max_depth=2 EXR",
                 },
                 paths.len()
             )));
+        }
+        if self == Preset::Luxcore {
+            return open_luxcore(&paths[0], names);
         }
         let mut files = Vec::new();
         for p in paths {
@@ -137,6 +147,55 @@ impl Preset {
         }
         Source::new(self, names, files)
     }
+}
+
+/// LuxCore's outputs in `dir`: one `<AOV>.exr` each, and `MATERIAL_ID.png`.
+fn open_luxcore(dir: &Path, names: Names) -> Result<Source> {
+    if !dir.is_dir() {
+        return Err(Error::in_file(
+            dir,
+            "--layout luxcore reads a directory of LuxCore's <AOV>.exr files",
+        ));
+    }
+    let mut files = Vec::new();
+    for aov in LUX_OTHER.into_iter().chain(LUX_DIRECT).chain(LUX_INDIRECT) {
+        let path = dir.join(format!("{aov}.exr"));
+        if !path.is_file() {
+            return Err(Error::in_file(
+                &path,
+                format!("missing: --layout luxcore expects LuxCore's {aov} output here"),
+            ));
+        }
+        files.push((path.display().to_string(), ExrImage::read(&path)?));
+    }
+    let mut src = Source::new(Preset::Luxcore, names, files)?;
+    let png = dir.join("MATERIAL_ID.png");
+    let ids = image::open(&png)
+        .map_err(|e| {
+            Error::in_file(
+                &png,
+                format!("--layout luxcore expects LuxCore's MATERIAL_ID output here: {e}"),
+            )
+        })?
+        .to_rgb8();
+    if (ids.width() as usize, ids.height() as usize) != (src.width, src.height) {
+        return Err(Error::in_file(
+            &png,
+            format!(
+                "image is {}×{} but the EXR outputs are {}×{}",
+                ids.width(),
+                ids.height(),
+                src.width,
+                src.height
+            ),
+        ));
+    }
+    src.lux_matid = Some(
+        ids.pixels()
+            .map(|p| if p.0 == [255; 3] { -1.0 } else { p.0[0] as f32 })
+            .collect(),
+    );
+    Ok(src)
 }
 
 impl Source {
@@ -161,6 +220,7 @@ impl Source {
             preset,
             names,
             files,
+            lux_matid: None,
             width,
             height,
         })
@@ -200,11 +260,33 @@ impl Source {
         self.rgb(0, [&p("R"), &p("G"), &p("B")])
     }
 
+    /// Index of LuxCore's AOV file `aov` (`open_luxcore` read them all).
+    fn lux_file(&self, aov: &str) -> usize {
+        self.files
+            .iter()
+            .position(|(l, _)| Path::new(l).file_stem().and_then(|s| s.to_str()) == Some(aov))
+            .expect("every LuxCore AOV is read in open_luxcore")
+    }
+
+    /// LuxCore's AOV `aov` as RGB.
+    fn lux(&self, aov: &str) -> Result<Rgb> {
+        self.rgb(self.lux_file(aov), ["R", "G", "B"])
+    }
+
+    fn lux_sum(&self, aovs: [&str; 3]) -> Result<Rgb> {
+        let mut sum = vec![[0.0; 3]; self.width * self.height];
+        for a in aovs {
+            add(&mut sum, &self.lux(a)?);
+        }
+        Ok(sum)
+    }
+
     /// The renderer's own full image (for checking that D + I reconstructs it).
     pub fn full(&self) -> Result<Rgb> {
         match self.preset {
             Preset::Mixmc => self.rgb_spec(0, &self.names.full, ["R", "G", "B"]),
             Preset::Cycles => self.cycles("Combined"),
+            Preset::Luxcore => self.lux("RADIANCE_GROUP"),
             Preset::Mitsuba => self.rgb(0, ["image.R", "image.G", "image.B"]),
         }
     }
@@ -225,6 +307,7 @@ impl Source {
                 }
                 Ok(d)
             }
+            Preset::Luxcore => self.lux_sum(LUX_DIRECT),
             Preset::Mitsuba => self.rgb(1, ["R", "G", "B"]),
         }
     }
@@ -244,6 +327,7 @@ impl Source {
                 }
                 Ok(i)
             }
+            Preset::Luxcore => self.lux_sum(LUX_INDIRECT),
             Preset::Mitsuba => {
                 // Full − direct: negative at places (see the module's page), kept unclamped.
                 let full = self.full()?;
@@ -264,6 +348,7 @@ impl Source {
             Preset::Cycles => (self.channel(0, &format!("{CYCLES_LAYER}.Depth.Z"))?, |z| {
                 z >= CYCLES_MISS
             }),
+            Preset::Luxcore => (self.channel(self.lux_file("DEPTH"), "R")?, |_| false),
             Preset::Mitsuba => (self.channel(0, "depth.T")?, |z| z <= 0.0),
         };
         Ok(raw
@@ -280,6 +365,7 @@ impl Source {
                 let p = |c: &str| format!("{CYCLES_LAYER}.Normal.{c}");
                 self.rgb(0, [&p("X"), &p("Y"), &p("Z")])
             }
+            Preset::Luxcore => self.lux("SHADING_NORMAL"),
             Preset::Mitsuba => self.rgb(0, ["normal.X", "normal.Y", "normal.Z"]),
         }
     }
@@ -291,6 +377,7 @@ impl Source {
             Preset::Cycles => self
                 .channel(0, &format!("{CYCLES_LAYER}.Material Index.X"))?
                 .to_vec(),
+            Preset::Luxcore => self.lux_matid.clone().expect("read in open_luxcore"),
             Preset::Mitsuba => self.channel(0, "shape.I")?.to_vec(),
         })
     }
@@ -310,8 +397,8 @@ impl Source {
 /// channels renamed one by one.
 #[derive(clap::Args, Debug, Clone)]
 pub struct LayoutArgs {
-    /// Which renderer wrote the input: mixmc (one EXR), cycles (one multilayer EXR), mitsuba
-    /// (the aov EXR, then the max_depth=2 EXR).
+    /// Which renderer wrote the input: mixmc (one EXR), cycles (one multilayer EXR), luxcore
+    /// (a directory of AOV files), mitsuba (the aov EXR, then the max_depth=2 EXR).
     #[arg(long, value_enum, default_value_t = Preset::Mixmc)]
     pub layout: Preset,
     /// Direct light (mixmc layout): a channel prefix (PREFIX.R/G/B) or three comma-separated names [default: direct].

@@ -3,6 +3,7 @@ Python, so the Cycles and LuxCore scripts build the same triangles, camera and m
 
 Only what the exporter writes is understood; anything else is an error, never a silent guess."""
 
+import argparse
 import math
 import struct
 import xml.etree.ElementTree as ET
@@ -128,3 +129,14 @@ def load(directory):
         emission = _vec(em.find("rgb").get("value")) if em is not None else None
         out.shapes.append(Shape(pos, tris, sh.find("ref").get("id"), emission))
     return out
+
+
+def parse_args(doc, output_help):
+    """The command line the render scripts share: EXPORTED_DIR OUTPUT [--spp] [--seed] [--threads]."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("exported", help="directory written by mixmc-scene export --mitsuba")
+    ap.add_argument("output", help=output_help)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=1)
+    return ap.parse_args()

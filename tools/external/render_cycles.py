@@ -10,7 +10,6 @@ counts bounces after the first hit); Lambert diffuse, sharp glass with our IOR, 
     tools/.venv-bpy/bin/python tools/external/render_cycles.py EXPORTED_DIR OUT.exr --spp 64 --seed 1
 """
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -162,13 +161,7 @@ def build(ex, spp, seed, threads):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("exported", help="directory written by mixmc-scene export --mitsuba")
-    ap.add_argument("output", help="multilayer EXR to write")
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--threads", type=int, default=1)
-    a = ap.parse_args()
+    a = exported.parse_args(__doc__, "multilayer EXR to write")
     ex = exported.load(a.exported)
     scene = build(ex, a.spp, a.seed, a.threads)
     scene.render.filepath = str(Path(a.output).resolve())

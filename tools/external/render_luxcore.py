@@ -11,7 +11,6 @@ Fresnel, Mitsuba's `material=none`) has no LuxCore twin and is refused.
     tools/.venv-lux/bin/python tools/external/render_luxcore.py EXPORTED_DIR OUT_DIR --spp 64 --seed 1
 """
 
-import argparse
 import os
 import time
 import sys
@@ -107,13 +106,7 @@ def config_props(ex, spp, seed, threads):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("exported", help="directory written by mixmc-scene export --mitsuba")
-    ap.add_argument("output", help="directory for the AOV files")
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--threads", type=int, default=1)
-    a = ap.parse_args()
+    a = exported.parse_args(__doc__, "directory for the AOV files")
     ex = exported.load(a.exported)
     # LuxCore's log goes to stderr; with a callback that printed nothing, the session never
     # finished here.

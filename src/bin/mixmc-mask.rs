@@ -5,7 +5,8 @@ use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::error::{Error, Result};
 use mixmc::exrio::ExrImage;
-use mixmc::mask::{Channels, Mask, MaskInput, MaskParams, build, inspect};
+use mixmc::layout::{LayoutArgs, Source};
+use mixmc::mask::{Mask, MaskInput, MaskParams, build, inspect};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -18,13 +19,16 @@ const FALLBACK_FOV: f32 = 40.0;
     name = "mixmc-mask",
     version,
     about = "Build the blending mask α (1 where ordinary Monte Carlo fails, ε elsewhere) from an OMC render",
-    after_help = "Input channels default to mixmc-omc's; other renderers' AOVs are named with --indirect, \
---depth, --normal, --matid. Background = non-finite depth or negative material id. The field of view \
-for the depth rule comes from --fov, else the input's mixmc.fov_y header, else 40 degrees (with a warning)."
+    after_help = "Input channels default to mixmc-omc's; Blender Cycles, LuxCore and Mitsuba 3 renders are read \
+with --layout cycles|luxcore|mitsuba (DESIGN §7), other files by naming channels with --indirect, --depth, \
+--normal, --matid. Background = non-finite depth or negative material id. The field of view for the depth \
+rule comes from --fov, else the input's mixmc.fov_y header, else 40 degrees (with a warning)."
 )]
 struct Args {
-    /// Input EXR (mixmc-omc's omc.exr, or any EXR with the channels named below).
-    input: PathBuf,
+    /// Input: mixmc-omc's omc.exr or any EXR with the channels named below; with --layout, the
+    /// renderer's files (luxcore: a directory; mitsuba: the aov EXR, then the max_depth=2 EXR).
+    #[arg(required = true, num_args = 1..=2)]
+    inputs: Vec<PathBuf>,
     /// Output EXR with channels alpha, segment, noise, weight.
     #[arg(short, long)]
     output: PathBuf,
@@ -61,18 +65,8 @@ struct Args {
     /// Spike gate (not with --paper): … and at least this times the image's mean indirect luminance.
     #[arg(long, default_value_t = 5.0)]
     min_level: f32,
-    /// Indirect light: a channel prefix (PREFIX.R/G/B) or three comma-separated names.
-    #[arg(long, default_value = "indirect")]
-    indirect: String,
-    /// Depth channel (distance; non-finite = background).
-    #[arg(long, default_value = "Z")]
-    depth: String,
-    /// Normal: a channel prefix (PREFIX.X/Y/Z) or three comma-separated names.
-    #[arg(long, default_value = "N")]
-    normal: String,
-    /// Material id channel (negative = background).
-    #[arg(long, default_value = "matid")]
-    matid: String,
+    #[command(flatten)]
+    layout: LayoutArgs,
     /// Write one PNG per step into this directory.
     #[arg(long)]
     inspect: Option<PathBuf>,
@@ -137,17 +131,17 @@ impl Args {
 }
 
 /// The field of view and where it came from.
-fn fov(args: &Args, img: &ExrImage) -> (f32, &'static str) {
+fn fov(args: &Args, src: &Source) -> (f32, &'static str) {
     if let Some(f) = args.fov {
         return (f, "--fov");
     }
-    match img.float_attr("mixmc.fov_y") {
-        Some(f) => (f as f32, "header"),
+    match src.fov_y() {
+        Some(f) => (f, "header"),
         None => (FALLBACK_FOV, "fallback"),
     }
 }
 
-fn output_image(img: &ExrImage, m: &Mask, p: &MaskParams, input: &Path) -> ExrImage {
+fn output_image(src: &Source, m: &Mask, p: &MaskParams, input: &Path) -> ExrImage {
     let mut out = ExrImage::new(m.width, m.height);
     out.add("alpha", m.alpha.clone());
     out.add(
@@ -159,7 +153,7 @@ fn output_image(img: &ExrImage, m: &Mask, p: &MaskParams, input: &Path) -> ExrIm
     out.set_text("mixmc.tool", "mixmc-mask");
     out.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
     out.set_text("mixmc.mask.input", input.display().to_string());
-    if let Some(scene) = img.text_attr("mixmc.scene") {
+    if let Some(scene) = src.text_attr("mixmc.scene") {
         out.set_text("mixmc.scene", scene);
     }
     out.set_text("mixmc.mask.mode", if p.paper { "paper" } else { "robust" });
@@ -197,20 +191,15 @@ fn main() -> ExitCode {
                 .build_global()
                 .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
         }
-        let img = ExrImage::read(&args.input)?;
-        let (fov_y, fov_source) = fov(&args, &img);
+        let src = args.layout.open(&args.inputs)?;
+        let input_path = &args.inputs[0];
+        let (fov_y, fov_source) = fov(&args, &src);
         let params = args.params(fov_y)?;
-        let channels = Channels {
-            indirect: args.indirect.clone(),
-            depth: args.depth.clone(),
-            normal: args.normal.clone(),
-            matid: args.matid.clone(),
-        };
-        let input = MaskInput::from_exr(&img, &channels).map_err(|e| e.with_file(&args.input))?;
+        let input = MaskInput::from_source(&src).map_err(|e| e.with_file(input_path))?;
         if fov_source == "fallback" {
             eprintln!(
                 "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",
-                args.input.display()
+                input_path.display()
             );
         }
         let start = Instant::now();
@@ -219,7 +208,7 @@ fn main() -> ExitCode {
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &input, &mask)?;
         }
-        let mut out = output_image(&img, &mask, &params, &args.input);
+        let mut out = output_image(&src, &mask, &params, input_path);
         out.set_text(COMMAND_ATTR, command_line());
         out.write(&args.output, false)?;
         let switch_note = if mask.switched {

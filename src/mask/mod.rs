@@ -13,5 +13,5 @@ pub mod pipeline;
 pub mod segment;
 pub mod select;
 
-pub use input::{Channels, MaskInput};
+pub use input::MaskInput;
 pub use pipeline::{Mask, MaskParams, build};

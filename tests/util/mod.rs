@@ -19,6 +19,8 @@ pub fn bin(name: &str) -> PathBuf {
         "mixmc-scene" => env!("CARGO_BIN_EXE_mixmc-scene"),
         "mixmc-diff" => env!("CARGO_BIN_EXE_mixmc-diff"),
         "mixmc-mmlt" => env!("CARGO_BIN_EXE_mixmc-mmlt"),
+        "mixmc-mask" => env!("CARGO_BIN_EXE_mixmc-mask"),
+        "mixmc-composite" => env!("CARGO_BIN_EXE_mixmc-composite"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

@@ -17,6 +17,31 @@ pub fn main_with(tool: &str, run: impl FnOnce() -> Result<ExitCode>) -> ExitCode
     }
 }
 
+/// Header key of the command line that made a file (provenance: a reference must say how it
+/// was rendered, and the file is the only thing that travels with it).
+pub const COMMAND_ATTR: &str = "mixmc.command";
+
+/// This process's command line, arguments that need it single-quoted for a POSIX shell, so that
+/// the header's `mixmc.command` can be pasted back to repeat the run.
+pub fn command_line() -> String {
+    std::env::args()
+        .map(|a| shell_quote(&a))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn shell_quote(arg: &str) -> String {
+    let plain = !arg.is_empty()
+        && arg
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+    if plain {
+        arg.to_string()
+    } else {
+        format!("'{}'", arg.replace('\'', "'\\''"))
+    }
+}
+
 /// Render options shared by `mixmc-omc`, `mixmc-mmlt` and `mixmc-mix`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -87,4 +112,17 @@ pub fn init_threads(threads: Option<usize>) -> Result<()> {
             .map_err(|e| Error::new(format!("cannot start {n} threads: {e}")))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_quote;
+
+    #[test]
+    fn shell_quote_leaves_plain_words_and_quotes_the_rest() {
+        assert_eq!(shell_quote("--spp=64"), "--spp=64");
+        assert_eq!(shell_quote("a b"), "'a b'");
+        assert_eq!(shell_quote("it's"), "'it'\\''s'");
+        assert_eq!(shell_quote(""), "''");
+    }
 }

@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
 use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
 use crate::fxaa::fxaa;
+use crate::layout::Source;
 use std::path::Path;
 
 /// Default `--switch`: above this fraction of complex pixels the mix is worse than MCMC alone
@@ -76,6 +77,13 @@ pub struct Input<'a> {
     pub image: &'a ExrImage,
 }
 
+/// The OMC render: our omc.exr or another renderer's passes, read through a layout preset.
+#[derive(Clone, Copy)]
+pub struct OmcInput<'a> {
+    pub path: &'a Path,
+    pub source: &'a Source,
+}
+
 /// The composited image and what happened on the way.
 pub struct Composite {
     /// `R,G,B` and the `mixmc.*` header.
@@ -89,10 +97,11 @@ pub struct Composite {
     pub warnings: Vec<(String, String)>,
 }
 
-/// Combine `omc.exr` (`direct.*`, `indirect.*`), `mask.exr` (`alpha`) and `mcmc.exr` (`R,G,B` =
-/// `I_mcmcα`) by eq. (2), or by `D + I_mcmc` when the switch fires; then FXAA on the borders.
-pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<Composite> {
-    let (w, h) = (omc.image.width, omc.image.height);
+/// Combine the OMC render's direct and indirect light (`omc.exr`'s `direct.*`, `indirect.*`, or
+/// another renderer's passes), `mask.exr` (`alpha`) and `mcmc.exr` (`R,G,B` = `I_mcmcα`) by
+/// eq. (2), or by `D + I_mcmc` when the switch fires; then FXAA on the borders.
+pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Result<Composite> {
+    let (w, h) = (omc.source.width, omc.source.height);
     for other in [mask, mcmc] {
         if (other.image.width, other.image.height) != (w, h) {
             return Err(Error::in_file(
@@ -106,14 +115,8 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
             ));
         }
     }
-    let d = omc
-        .image
-        .require_rgb(["direct.R", "direct.G", "direct.B"])
-        .map_err(|e| e.with_file(omc.path))?;
-    let i_omc = omc
-        .image
-        .require_rgb(["indirect.R", "indirect.G", "indirect.B"])
-        .map_err(|e| e.with_file(omc.path))?;
+    let d = omc.source.direct().map_err(|e| e.with_file(omc.path))?;
+    let i_omc = omc.source.indirect().map_err(|e| e.with_file(omc.path))?;
     let i_mcmc = mcmc
         .image
         .require_rgb(RGB)
@@ -183,7 +186,7 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
         }
     }
     let (omc_scene, mcmc_scene) = (
-        omc.image.text_attr("mixmc.scene"),
+        omc.source.text_attr("mixmc.scene"),
         mcmc.image.text_attr("mixmc.scene"),
     );
     if let (Some(a), Some(b)) = (&omc_scene, &mcmc_scene)

@@ -144,7 +144,11 @@ impl ExrImage {
                 .as_ref()
                 .map(|n| format!("{n}."));
             for ch in &layer.channel_data.list {
-                let name = format!("{}{}", prefix.as_deref().unwrap_or(""), ch.name);
+                // Multi-part files by Blender already carry the part name in each channel's.
+                let name = match prefix.as_deref() {
+                    Some(p) if !ch.name.to_string().starts_with(p) => format!("{p}{}", ch.name),
+                    _ => ch.name.to_string(),
+                };
                 out.channels
                     .push((name, ch.sample_data.values_as_f32().collect()));
             }

@@ -12,6 +12,7 @@ pub mod film;
 pub mod fingerprint;
 pub mod fxaa;
 pub mod integrators;
+pub mod layout;
 pub mod lights;
 pub mod mask;
 pub mod math;

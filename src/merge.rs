@@ -6,7 +6,13 @@
 //! the same estimator, so everything else that defines the estimate must agree, and equal seeds
 //! (the same random numbers twice) are refused. G-buffer channels come from the pixel-centre ray,
 //! not from samples: they must be equal and are copied, never averaged.
+//!
+//! A merge of one file is that file: it is how a render is converted (e.g. to half float) without
+//! losing its provenance. The inputs' command lines move to `mixmc.input_commands` (one a line,
+//! flattened through earlier merges), so the render commands stay readable after any number of
+//! merges; the merge's own command line is the caller's to set as `mixmc.command`.
 
+use crate::cli::COMMAND_ATTR;
 use crate::error::{Error, Result};
 use crate::exrio::{Attr, ExrImage};
 use std::collections::BTreeSet;
@@ -21,8 +27,9 @@ pub fn is_gbuffer(channel: &str) -> bool {
 }
 
 /// Header attributes that may differ between independent passes: their sample counts, seeds and
-/// timings, and where the mask file lay (its content hash must still match).
-const PER_PASS_ATTRS: [&str; 7] = [
+/// timings, the commands that made them, and where the mask file lay (its content hash must
+/// still match).
+const PER_PASS_ATTRS: [&str; 9] = [
     "mixmc.seed",
     "mixmc.spp",
     "mixmc.mutations",
@@ -30,7 +37,20 @@ const PER_PASS_ATTRS: [&str; 7] = [
     "mixmc.partial",
     "mixmc.mask",
     "mixmc.version",
+    COMMAND_ATTR,
+    INPUT_COMMANDS_ATTR,
 ];
+
+/// Header key of a merged file's input command lines, one a line, in input order.
+pub const INPUT_COMMANDS_ATTR: &str = "mixmc.input_commands";
+
+/// The render commands behind a file: those its own inputs had if it is a merge, else its own
+/// command line (or a note that its header has none: files from before `mixmc.command`).
+fn render_commands(img: &ExrImage) -> String {
+    img.text_attr(INPUT_COMMANDS_ATTR)
+        .or_else(|| img.text_attr(COMMAND_ATTR))
+        .unwrap_or_else(|| "(command not recorded)".to_string())
+}
 
 /// The attribute that counts a file's samples: MMLT images are means over mutations.
 pub fn weight_attr(tool: &str) -> &'static str {
@@ -61,9 +81,6 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
     let [(first_path, first), rest @ ..] = inputs else {
         return Err(Error::new("nothing to merge"));
     };
-    if rest.is_empty() {
-        return Err(Error::new("give at least two files to merge"));
-    }
     let tool = first.text_attr("mixmc.tool").ok_or_else(|| {
         Error::in_file(
             first_path,
@@ -181,6 +198,15 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         out.add(name, merged);
     }
     out.attributes = first.attributes.clone();
+    out.attributes.remove(COMMAND_ATTR);
+    out.set_text(
+        INPUT_COMMANDS_ATTR,
+        inputs
+            .iter()
+            .map(|(_, img)| render_commands(img))
+            .collect::<Vec<_>>()
+            .join("\n"),
+    );
     out.set_float(weight_key, total);
     out.set_text(
         "mixmc.seed",

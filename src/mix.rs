@@ -6,12 +6,13 @@
 //! the budget, and eq. (2) composites the three images. Every phase is the same code the separate
 //! tools run, so `--keep` writes exactly the files the pipeline of tools would have written.
 
-use crate::composite::{Composite, Input, Options, composite};
+use crate::composite::{Composite, Input, OmcInput, Options, composite};
 use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
 use crate::film::{Film, GBuffer};
 use crate::integrators::Method;
-use crate::mask::{Channels, MaskInput, MaskParams, build, mask_image};
+use crate::layout::{Names, Preset, Source};
+use crate::mask::{MaskInput, MaskParams, build, mask_image};
 use crate::mmlt::{Mask, MmltSettings, mcmc_image, render as render_mmlt};
 use crate::omc::{OmcSettings, aov_image};
 use crate::render::{Budget, Rendered, continue_passes};
@@ -148,9 +149,9 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         fov_y: scene_fov(&snapshot),
         ..s.mask.clone()
     };
-    let input = MaskInput::from_exr(&snapshot, &Channels::default())?;
-    let m = build(&input, &params);
     let snapshot_name = dir.join(KEEP_NAMES[0]).display().to_string();
+    let input = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
+    let m = build(&input, &params);
     let mask_img = mask_image(
         &m,
         &params,
@@ -205,10 +206,11 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let (omc_name, mcmc_name) = (dir.join(KEEP_NAMES[1]), dir.join(KEEP_NAMES[3]));
     let mut image = match &mcmc {
         Some(mcmc_img) => {
+            let omc_source = ours(&omc_name.display().to_string(), &omc)?;
             let c: Composite = composite(
-                Input {
+                OmcInput {
                     path: &omc_name,
-                    image: &omc,
+                    source: &omc_source,
                 },
                 Input {
                     path: &mask_name,
@@ -260,6 +262,15 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         phases,
         partial,
     })
+}
+
+/// Our own AOV image as the layout the mask and compositor read.
+fn ours(label: &str, img: &ExrImage) -> Result<Source> {
+    Source::new(
+        Preset::Mixmc,
+        Names::default(),
+        vec![(label.to_string(), img.clone())],
+    )
 }
 
 /// The field of view the OMC header records (the mask's depth rule needs it).

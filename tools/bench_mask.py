@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
 """Speed of mixmc-mask on a 3840x2160 input against OpenCV's medianBlur 5x5 + absdiff, in one run.
 
-  tools/.venv/bin/python tools/bench_mask.py [--runs 5] [--workdir /tmp/mixmc-bench-mask]
+  tools/.venv/bin/python tools/bench_mask.py [--runs 5] [--workdir /tmp/mixmc-bench-mask] [--baseline DIR]
 
 The input is the caustic scene rendered at 128x128 (16 spp), its G-buffer upscaled to 3840x2160 by
 nearest neighbour and its indirect light upscaled bilinearly times per-pixel noise (lognormal,
 sigma 0.5, plus 0.2% fireflies x50), so that the median has real work and the segments are the
 scene's. mixmc-mask reports the seconds of its computation (after reading, before writing) in
 --json; OpenCV is timed on the float32 luminance, which it gets for free. Medians of --runs runs.
+--baseline DIR also times DIR/mixmc-mask (another build, e.g. the main branch's target/release) with
+the default settings, in the same run, so a change is measured against what it replaces under the
+same load.
 """
 import argparse
 import json
@@ -63,27 +66,31 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--runs", type=int, default=5)
     p.add_argument("--workdir", default="/tmp/mixmc-bench-mask")
+    p.add_argument("--baseline", help="directory with another build's mixmc-mask to time beside this one")
     args = p.parse_args()
     os.makedirs(args.workdir, exist_ok=True)
     src = os.path.join(args.workdir, "input-4k.exr")
     y = make_input(src)
-    results = {}
-    for label, extra in [("mixmc-mask (7x7, default)", []), ("mixmc-mask --window 5", ["--window", "5"]),
-                         ("mixmc-mask --paper", ["--paper"])]:
-        comp, wall = [], []
-        for _ in range(args.runs):
-            t = time.perf_counter()
-            r = subprocess.run([os.path.join(BIN, "mixmc-mask"), src, "-o", os.path.join(args.workdir, "mask.exr"),
-                                "--json"] + extra, check=True, capture_output=True, text=True)
-            wall.append(time.perf_counter() - t)
-            comp.append(json.loads(r.stdout)["compute_seconds"])
-        results[label] = (statistics.median(comp), statistics.median(wall))
+    variants = [("mixmc-mask (7x7, default)", BIN, []), ("mixmc-mask --window 5", BIN, ["--window", "5"]),
+                ("mixmc-mask --paper", BIN, ["--paper"])]
+    if args.baseline:
+        variants.insert(1, (f"baseline {args.baseline}/mixmc-mask (7x7, default)", args.baseline, []))
+    # Rounds interleave every variant and OpenCV, so a change in the machine's load hits all alike.
+    comp = {label: [] for label, _, _ in variants}
+    wall = {label: [] for label, _, _ in variants}
     cv = []
     for _ in range(args.runs):
+        for label, bin_dir, extra in variants:
+            t = time.perf_counter()
+            r = subprocess.run([os.path.join(bin_dir, "mixmc-mask"), src, "-o", os.path.join(args.workdir, "mask.exr"),
+                                "--json"] + extra, check=True, capture_output=True, text=True)
+            wall[label].append(time.perf_counter() - t)
+            comp[label].append(json.loads(r.stdout)["compute_seconds"])
         t = time.perf_counter()
         d = cv2.absdiff(y, cv2.medianBlur(y, 5))
         cv.append(time.perf_counter() - t)
     assert d.shape == y.shape
+    results = {label: (statistics.median(comp[label]), statistics.median(wall[label])) for label in comp}
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
           f"OpenCV {cv2.__version__} with {cv2.getNumThreads()} threads; {W}x{H}; median of {args.runs} runs")
     print("| what | compute s | whole process s (read EXR, mask, write EXR) |")

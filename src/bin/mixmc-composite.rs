@@ -2,11 +2,12 @@
 //! eq. (2) with FXAA on the mask's borders, or D + I_mcmc above the MCMC-only switch (DESIGN §5).
 
 use clap::Parser;
-use mixmc::cli::main_with;
-use mixmc::composite::{DEFAULT_SWITCH, Input, Options, composite};
+use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
+use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, Options, composite};
 use mixmc::error::Error;
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
+use mixmc::layout::LayoutArgs;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -15,9 +16,13 @@ const TOOL: &str = "mixmc-composite";
 #[derive(Parser)]
 #[command(name = TOOL, version, about = "Composite OMC and MCMC renders by a mask: D + I_omc·(1 − α) + I_mcmcα")]
 struct Args {
-    /// OMC render with direct.R/G/B and indirect.R/G/B (mixmc-omc's output).
-    #[arg(long)]
-    omc: PathBuf,
+    /// OMC render with direct.R/G/B and indirect.R/G/B (mixmc-omc's output), or another
+    /// renderer's files with --layout (luxcore: a directory; mitsuba: the aov EXR, then the
+    /// max_depth=2 EXR).
+    #[arg(long, required = true, num_args = 1..=2)]
+    omc: Vec<PathBuf>,
+    #[command(flatten)]
+    layout: LayoutArgs,
     /// Mask with an `alpha` channel (ε or 1; mixmc-mask's output).
     #[arg(long)]
     mask: PathBuf,
@@ -48,13 +53,13 @@ fn main() -> ExitCode {
                 args.switch
             )));
         }
-        let omc = ExrImage::read(&args.omc)?;
+        let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
-        let result = composite(
-            Input {
-                path: &args.omc,
-                image: &omc,
+        let mut result = composite(
+            OmcInput {
+                path: &args.omc[0],
+                source: &omc,
             },
             Input {
                 path: &args.mask,
@@ -72,7 +77,8 @@ fn main() -> ExitCode {
         for (file, msg) in &result.warnings {
             eprintln!("{TOOL}: {file}: {msg}");
         }
-        let img = &result.image;
+        let img = &mut result.image;
+        img.set_text(COMMAND_ATTR, command_line());
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
             write_beauty_png(png, img)?;

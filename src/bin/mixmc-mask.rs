@@ -2,10 +2,10 @@
 //! indirect light and G-buffer; see `mixmc::mask` for the steps and the default's spike gate.
 
 use clap::Parser;
-use mixmc::cli::{init_threads, main_with};
+use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
 use mixmc::error::{Error, Result};
-use mixmc::exrio::ExrImage;
-use mixmc::mask::{Channels, MaskInput, MaskParams, build, inspect, mask_image};
+use mixmc::layout::{LayoutArgs, Source};
+use mixmc::mask::{MaskInput, MaskParams, build, inspect, mask_image};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -18,13 +18,16 @@ const FALLBACK_FOV: f32 = 40.0;
     name = "mixmc-mask",
     version,
     about = "Build the blending mask α (1 where ordinary Monte Carlo fails, ε elsewhere) from an OMC render",
-    after_help = "Input channels default to mixmc-omc's; other renderers' AOVs are named with --indirect, \
---depth, --normal, --matid. Background = non-finite depth or negative material id. The field of view \
-for the depth rule comes from --fov, else the input's mixmc.fov_y header, else 40 degrees (with a warning)."
+    after_help = "Input channels default to mixmc-omc's; Blender Cycles, LuxCore and Mitsuba 3 renders are read \
+with --layout cycles|luxcore|mitsuba (DESIGN §7), other files by naming channels with --indirect, --depth, \
+--normal, --matid. Background = non-finite depth or negative material id. The field of view for the depth \
+rule comes from --fov, else the input's mixmc.fov_y header, else 40 degrees (with a warning)."
 )]
 struct Args {
-    /// Input EXR (mixmc-omc's omc.exr, or any EXR with the channels named below).
-    input: PathBuf,
+    /// Input: mixmc-omc's omc.exr or any EXR with the channels named below; with --layout, the
+    /// renderer's files (luxcore: a directory; mitsuba: the aov EXR, then the max_depth=2 EXR).
+    #[arg(required = true, num_args = 1..=2)]
+    inputs: Vec<PathBuf>,
     /// Output EXR with channels alpha, segment, noise, weight.
     #[arg(short, long)]
     output: PathBuf,
@@ -61,18 +64,8 @@ struct Args {
     /// Spike gate (not with --paper): … and at least this times the image's mean indirect luminance.
     #[arg(long, default_value_t = 5.0)]
     min_level: f32,
-    /// Indirect light: a channel prefix (PREFIX.R/G/B) or three comma-separated names.
-    #[arg(long, default_value = "indirect")]
-    indirect: String,
-    /// Depth channel (distance; non-finite = background).
-    #[arg(long, default_value = "Z")]
-    depth: String,
-    /// Normal: a channel prefix (PREFIX.X/Y/Z) or three comma-separated names.
-    #[arg(long, default_value = "N")]
-    normal: String,
-    /// Material id channel (negative = background).
-    #[arg(long, default_value = "matid")]
-    matid: String,
+    #[command(flatten)]
+    layout: LayoutArgs,
     /// Write one PNG per step into this directory.
     #[arg(long)]
     inspect: Option<PathBuf>,
@@ -137,12 +130,12 @@ impl Args {
 }
 
 /// The field of view and where it came from.
-fn fov(args: &Args, img: &ExrImage) -> (f32, &'static str) {
+fn fov(args: &Args, src: &Source) -> (f32, &'static str) {
     if let Some(f) = args.fov {
         return (f, "--fov");
     }
-    match img.float_attr("mixmc.fov_y") {
-        Some(f) => (f as f32, "header"),
+    match src.fov_y() {
+        Some(f) => (f, "header"),
         None => (FALLBACK_FOV, "fallback"),
     }
 }
@@ -151,20 +144,15 @@ fn main() -> ExitCode {
     main_with("mixmc-mask", || {
         let args = Args::parse();
         init_threads(args.threads)?;
-        let img = ExrImage::read(&args.input)?;
-        let (fov_y, fov_source) = fov(&args, &img);
+        let src = args.layout.open(&args.inputs)?;
+        let input_path = &args.inputs[0];
+        let (fov_y, fov_source) = fov(&args, &src);
         let params = args.params(fov_y)?;
-        let channels = Channels {
-            indirect: args.indirect.clone(),
-            depth: args.depth.clone(),
-            normal: args.normal.clone(),
-            matid: args.matid.clone(),
-        };
-        let input = MaskInput::from_exr(&img, &channels).map_err(|e| e.with_file(&args.input))?;
+        let input = MaskInput::from_source(&src).map_err(|e| e.with_file(input_path))?;
         if fov_source == "fallback" {
             eprintln!(
                 "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",
-                args.input.display()
+                input_path.display()
             );
         }
         let start = Instant::now();
@@ -173,13 +161,14 @@ fn main() -> ExitCode {
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &input, &mask)?;
         }
-        mask_image(
+        let mut out = mask_image(
             &mask,
             &params,
-            &args.input.display().to_string(),
-            img.text_attr("mixmc.scene"),
-        )
-        .write(&args.output, false)?;
+            &input_path.display().to_string(),
+            src.text_attr("mixmc.scene"),
+        );
+        out.set_text(COMMAND_ATTR, command_line());
+        out.write(&args.output, false)?;
         let switch_note = if mask.switched {
             format!(
                 "; above --switch {}: MCMC only, alpha = 1 everywhere",

@@ -2,7 +2,7 @@
 //! one render (DESIGN §8).
 
 use clap::Parser;
-use mixmc::cli::main_with;
+use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::exrio::ExrImage;
 use mixmc::merge::{merge, weight_attr};
 use std::path::PathBuf;
@@ -15,12 +15,16 @@ use std::process::ExitCode;
     about = "Merge independent passes (different seeds) of one render, weighted by their sample counts"
 )]
 struct Args {
-    /// Two or more EXRs of the same tool, method, scene, resolution and settings, different seeds.
-    #[arg(required = true, num_args = 2..)]
+    /// EXRs of the same tool, method, scene, resolution and settings, different seeds; one file
+    /// is copied (with --half: converted), its command kept in mixmc.input_commands.
+    #[arg(required = true, num_args = 1..)]
     inputs: Vec<PathBuf>,
     /// Output EXR; its mixmc.spp (or mixmc.mutations) is the sum, mixmc.seed lists every seed.
     #[arg(short, long)]
     output: PathBuf,
+    /// Store the channels as 16-bit half floats (references: half the size, ~3 decimal digits).
+    #[arg(long)]
+    half: bool,
 }
 
 fn main() -> ExitCode {
@@ -31,8 +35,9 @@ fn main() -> ExitCode {
             .iter()
             .map(|p| ExrImage::read(p).map(|img| (p.as_path(), img)))
             .collect::<mixmc::Result<Vec<_>>>()?;
-        let out = merge(&images)?;
-        out.write(&args.output, false)?;
+        let mut out = merge(&images)?;
+        out.set_text(COMMAND_ATTR, command_line());
+        out.write(&args.output, args.half)?;
         let key = weight_attr(&out.text_attr("mixmc.tool").unwrap_or_default());
         println!(
             "{}: {} files, {key} {}, seeds {}",

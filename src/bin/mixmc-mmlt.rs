@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use mixmc::Error;
-use mixmc::cli::{RenderArgs, main_with};
+use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
 use mixmc::film::write_beauty_png;
 use mixmc::mmlt::{Mask, MmltSettings, mcmc_image, render};
 use mixmc::render::Budget;
@@ -118,7 +118,8 @@ fn main() -> ExitCode {
         };
         mixmc::signal::install();
         let r = render(&scene, mask.as_ref(), &settings);
-        let img = mcmc_image(&scene, mask.as_ref(), &settings, &r);
+        let mut img = mcmc_image(&scene, mask.as_ref(), &settings, &r);
+        img.set_text(COMMAND_ATTR, command_line());
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {
             write_beauty_png(png, &img)?;

@@ -2,7 +2,7 @@
 //! G-buffer (DESIGN §3).
 
 use clap::Parser;
-use mixmc::cli::{RenderArgs, main_with};
+use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
 use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
 use mixmc::omc::{OmcSettings, render};
@@ -28,6 +28,9 @@ struct Args {
     /// Also write an sRGB preview PNG of the beauty image.
     #[arg(long)]
     png: Option<PathBuf>,
+    /// Store the channels as 16-bit half floats (references: half the size, ~3 decimal digits).
+    #[arg(long)]
+    half: bool,
     #[command(flatten)]
     render: RenderArgs,
 }
@@ -51,8 +54,9 @@ fn main() -> ExitCode {
             );
         }
         mixmc::signal::install();
-        let img = render(&scene, &settings);
-        img.write(&args.output, false)?;
+        let mut img = render(&scene, &settings);
+        img.set_text(COMMAND_ATTR, command_line());
+        img.write(&args.output, args.half)?;
         if let Some(png) = &args.png {
             write_beauty_png(png, &img)?;
         }

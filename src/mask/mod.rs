@@ -14,6 +14,6 @@ pub mod pipeline;
 pub mod segment;
 pub mod select;
 
-pub use input::{Channels, MaskInput};
+pub use input::MaskInput;
 pub use output::mask_image;
 pub use pipeline::{Mask, MaskParams, build};

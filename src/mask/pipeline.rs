@@ -24,8 +24,12 @@
 use super::input::MaskInput;
 use super::median::MedianNetwork;
 use super::segment::{GBuffer, SegmentParams, Segments, segment};
-use super::select::nth_largest;
+use super::select::nth_largest_many;
 use rayon::prelude::*;
+
+/// Pixels per parallel part of the fill step: few parts, since each keeps a fill value per
+/// segment.
+const FILL_CHUNK: usize = 1 << 20;
 
 /// The parameters of every step; `Default` gives the documented defaults.
 #[derive(Clone, Debug)]
@@ -108,8 +112,7 @@ pub fn noise(luminance: &[f32], width: usize, height: usize, window: usize) -> V
 /// Step 2: sigmoid weights of the top fraction; returns (weights, t, m).
 pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
     let count = ((top * noise.len() as f64).ceil() as usize).clamp(1, noise.len());
-    let t = nth_largest(noise, count - 1);
-    let m = nth_largest(noise, (count - 1) / 2);
+    let [t, m] = nth_largest_many(noise, [count - 1, (count - 1) / 2]);
     if m <= 0.0 {
         return (vec![0.0; noise.len()], t, m);
     }
@@ -191,28 +194,42 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
                 }
             });
     }
-    let mut fill = vec![0.0f32; segments.count];
-    for (&l, &w) in segments.labels.iter().zip(&weight) {
-        let f = &mut fill[l as usize];
-        *f = f.max(w);
-    }
+    let count = segments.count;
+    let fill = segments
+        .labels
+        .par_chunks(FILL_CHUNK)
+        .zip(weight.par_chunks(FILL_CHUNK))
+        .map(|(labels, weights)| {
+            let mut f = vec![0.0f32; count];
+            for (&l, &w) in labels.iter().zip(weights) {
+                f[l as usize] = f[l as usize].max(w);
+            }
+            f
+        })
+        .reduce(
+            || vec![0.0f32; count],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x = x.max(*y));
+                a
+            },
+        );
     let complex_segments = fill.iter().filter(|&&f| f > 0.5).count();
-    let filled: Vec<f32> = segments
+    let (filled, mut alpha): (Vec<f32>, Vec<f32>) = segments
         .labels
         .par_iter()
-        .map(|&l| fill[l as usize])
-        .collect();
-    let mut alpha: Vec<f32> = filled
-        .par_iter()
-        .map(|&f| {
-            if f.max(p.epsilon) > 0.5 {
-                1.0
-            } else {
-                p.epsilon
-            }
+        .map(|&l| {
+            let f = fill[l as usize];
+            (
+                f,
+                if f.max(p.epsilon) > 0.5 {
+                    1.0
+                } else {
+                    p.epsilon
+                },
+            )
         })
-        .collect();
-    let complex = alpha.iter().filter(|&&a| a == 1.0).count();
+        .unzip();
+    let complex = alpha.par_iter().filter(|&&a| a == 1.0).count();
     let complex_fraction = complex as f64 / alpha.len() as f64;
     let switched = complex_fraction > p.switch;
     if switched {

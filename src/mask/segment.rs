@@ -41,11 +41,13 @@ pub struct Segments {
 }
 
 impl GBuffer<'_> {
+    #[inline(always)]
     pub fn is_background(&self, i: usize) -> bool {
         !self.depth[i].is_finite() || self.matid[i] < 0.0
     }
 
     /// Whether pixels `a` and `b` (4-neighbours) belong to the same segment.
+    #[inline(always)]
     fn joins(&self, a: usize, b: usize, p: &SegmentParams, pixel_angle: f32) -> bool {
         match (self.is_background(a), self.is_background(b)) {
             (true, true) => return true,
@@ -124,14 +126,24 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
                 .iter_mut()
                 .enumerate()
                 .for_each(|(i, v)| *v = i as u32);
+            // A pixel joining a neighbour takes that neighbour's parent (an ancestor with a
+            // smaller index, so the smallest index stays the root); only a pixel joining both
+            // neighbours may have to merge two sets.
             for ly in 0..local.len() / w {
                 for x in 0..w {
                     let i = ly * w + x;
-                    if x > 0 && g.joins(base + i, base + i - 1, p, pixel_angle) {
-                        union(local, i as u32, (i - 1) as u32, true);
-                    }
-                    if ly > 0 && g.joins(base + i, base + i - w, p, pixel_angle) {
-                        union(local, i as u32, (i - w) as u32, true);
+                    let left = x > 0 && g.joins(base + i, base + i - 1, p, pixel_angle);
+                    let up = ly > 0 && g.joins(base + i, base + i - w, p, pixel_angle);
+                    match (left, up) {
+                        (false, false) => {}
+                        (true, false) => local[i] = local[i - 1],
+                        (false, true) => local[i] = local[i - w],
+                        (true, true) => {
+                            local[i] = local[i - 1];
+                            if local[i - 1] != local[i - w] {
+                                union(local, (i - 1) as u32, (i - w) as u32, true);
+                            }
+                        }
                     }
                 }
             }

@@ -11,21 +11,14 @@ use rayon::prelude::*;
 const BINS: usize = 1 << 16;
 const PAR_CHUNK: usize = 1 << 18;
 
-/// Histogram of `key(bits)` over the values whose bits satisfy `keep`.
-fn histogram(
-    values: &[f32],
-    keep: impl Fn(u32) -> bool + Sync,
-    key: impl Fn(u32) -> usize + Sync,
-) -> Vec<u64> {
+/// Histogram of `key(bits)` over all values.
+fn histogram(values: &[f32], key: impl Fn(u32) -> usize + Sync) -> Vec<u64> {
     values
         .par_chunks(PAR_CHUNK)
         .map(|chunk| {
             let mut h = vec![0u64; BINS];
             for v in chunk {
-                let b = v.to_bits();
-                if keep(b) {
-                    h[key(b)] += 1;
-                }
+                h[key(v.to_bits())] += 1;
             }
             h
         })
@@ -50,23 +43,52 @@ fn bin_of_rank(hist: &[u64], mut rank: u64) -> (usize, u64) {
     (0, 0)
 }
 
+/// The values of descending ranks `ranks` (0 = the largest) among `values`, which must all be
+/// non-negative and finite, with every rank `< values.len()`. The ranks share the pass over
+/// the high bits and the pass over the low bits (one low histogram per rank).
+pub fn nth_largest_many<const R: usize>(values: &[f32], ranks: [usize; R]) -> [f32; R] {
+    for rank in ranks {
+        assert!(
+            rank < values.len(),
+            "rank {rank} out of {} values",
+            values.len()
+        );
+    }
+    let high = histogram(values, |b| (b >> 16) as usize);
+    let split = ranks.map(|r| bin_of_rank(&high, r as u64));
+    let low = values
+        .par_chunks(PAR_CHUNK)
+        .map(|chunk| {
+            let mut h = vec![0u64; R * BINS];
+            for v in chunk {
+                let b = v.to_bits();
+                for (r, &(hi_bin, _)) in split.iter().enumerate() {
+                    if (b >> 16) as usize == hi_bin {
+                        h[r * BINS + (b & 0xffff) as usize] += 1;
+                    }
+                }
+            }
+            h
+        })
+        .reduce(
+            || vec![0u64; R * BINS],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
+    let mut out = [0.0; R];
+    for (r, &(hi_bin, rest)) in split.iter().enumerate() {
+        let (lo_bin, _) = bin_of_rank(&low[r * BINS..(r + 1) * BINS], rest);
+        out[r] = f32::from_bits(((hi_bin as u32) << 16) | lo_bin as u32);
+    }
+    out
+}
+
 /// The value of descending rank `rank` (0 = the largest) among `values`, which must all be
 /// non-negative and finite, with `rank < values.len()`.
 pub fn nth_largest(values: &[f32], rank: usize) -> f32 {
-    assert!(
-        rank < values.len(),
-        "rank {rank} out of {} values",
-        values.len()
-    );
-    let high = histogram(values, |_| true, |b| (b >> 16) as usize);
-    let (hi_bin, rest) = bin_of_rank(&high, rank as u64);
-    let low = histogram(
-        values,
-        |b| (b >> 16) as usize == hi_bin,
-        |b| (b & 0xffff) as usize,
-    );
-    let (lo_bin, _) = bin_of_rank(&low, rest);
-    f32::from_bits(((hi_bin as u32) << 16) | lo_bin as u32)
+    nth_largest_many(values, [rank])[0]
 }
 
 /// The median of `values` (non-negative, finite, not empty): for an even count the upper of
@@ -94,6 +116,9 @@ mod tests {
         for rank in [0, 1, 17, 9_999, 50_000, 79_999, 80_000, 99_999] {
             assert_eq!(nth_largest(&values, rank), sorted[rank], "rank {rank}");
         }
+        // Ranks in the same high-bits bin and in different ones, in one call.
+        let ranks = [40_000, 9_999, 40_001, 0];
+        assert_eq!(nth_largest_many(&values, ranks), ranks.map(|r| sorted[r]));
         assert_eq!(median(&[3.0, 1.0, 2.0, 5.0]), 3.0);
         assert_eq!(median(&[7.0]), 7.0);
     }

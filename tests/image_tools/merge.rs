@@ -59,9 +59,22 @@ fn merge_is_the_sample_weighted_mean() {
     let abc = dir.join("abc.exr");
     merge(&[&a, &b, &c], &abc);
     check_against_numpy(&abc, &[&a, &b, &c], 8.0);
-    // A merged file merges on like any pass; its seeds still count.
+    // A merged file merges on like any pass; its seeds still count, and the render commands of
+    // all three passes stay readable through the two merges.
     let ab_c = dir.join("ab_c.exr");
     merge(&[&ab, &c], &ab_c);
+    let command = |p: &Path| {
+        ExrImage::read(p)
+            .unwrap()
+            .text_attr("mixmc.command")
+            .unwrap()
+    };
+    let inputs = ExrImage::read(&ab_c)
+        .unwrap()
+        .text_attr("mixmc.input_commands")
+        .unwrap();
+    assert_eq!(inputs, [command(&a), command(&b), command(&c)].join("\n"));
+    assert!(command(&ab_c).contains("ab_c.exr"), "{}", command(&ab_c));
     let (x, y) = (
         ExrImage::read(&abc).unwrap(),
         ExrImage::read(&ab_c).unwrap(),
@@ -152,6 +165,75 @@ fn passes_of_different_renders_are_refused() {
     });
     refused(&small, &["resolution", "64×128", "128×128"]);
     assert!(!out.exists());
-    // Too few inputs is a usage error.
-    run_code(MERGE, &[path_str(&a), "-o", path_str(&out)], 2);
+    // No input is a usage error (one input is a conversion: see the half-float test).
+    run_code(MERGE, &["-o", path_str(&out)], 2);
+}
+
+/// A reference is stored as half float: `mixmc-omc --half` and a one-file `mixmc-merge --half`
+/// both give the f32 render rounded to f16, and the header still says how it was rendered.
+#[test]
+fn half_float_output_keeps_values_and_provenance() {
+    let dir = temp_dir("half");
+    let full = render(&dir, "full.exr", 5, 2);
+    let direct = dir.join("direct-half.exr");
+    run_code(
+        OMC,
+        &[
+            &repo("fixtures/scenes/caustic.json"),
+            "-o",
+            path_str(&direct),
+            "--seed",
+            "5",
+            "--spp",
+            "2",
+            "-q",
+            "--half",
+        ],
+        0,
+    );
+    let converted = dir.join("converted.exr");
+    run_code(
+        MERGE,
+        &[path_str(&full), "--half", "-o", path_str(&converted)],
+        0,
+    );
+    let f32_img = ExrImage::read(&full).unwrap();
+    let source_command = f32_img.text_attr("mixmc.command").unwrap();
+    assert!(source_command.contains("--spp 2"), "{source_command}");
+    for half in [&direct, &converted] {
+        let img = ExrImage::read(half).unwrap();
+        for (name, data) in &f32_img.channels {
+            let rounded: Vec<f32> = data
+                .iter()
+                .map(|v| exr::prelude::f16::from_f32(*v).to_f32())
+                .collect();
+            let got = img.require(name).unwrap();
+            let bad = got
+                .iter()
+                .zip(&rounded)
+                .position(|(a, b)| a.to_bits() != b.to_bits());
+            assert!(
+                bad.is_none(),
+                "{}: {name} at {bad:?} is not the f16 rounding",
+                half.display()
+            );
+        }
+        assert_eq!(img.float_attr("mixmc.spp"), Some(2.0));
+        assert!(img.text_attr("mixmc.command").unwrap().contains("--half"));
+    }
+    let conv = ExrImage::read(&converted).unwrap();
+    assert_eq!(conv.text_attr("mixmc.input_commands"), Some(source_command));
+    assert_eq!(
+        conv.float_attr("mixmc.seconds"),
+        f32_img.float_attr("mixmc.seconds")
+    );
+    assert_eq!(conv.text_attr("mixmc.seed").as_deref(), Some("5"));
+    // Half the bytes per sample, so the file is smaller (compression makes it less than half).
+    let size = |p: &Path| std::fs::metadata(p).unwrap().len();
+    assert!(
+        size(&converted) < size(&full),
+        "{} vs {}",
+        size(&converted),
+        size(&full)
+    );
 }

@@ -84,14 +84,18 @@ fn assert_close(a: &Path, b: &Path) {
 }
 
 fn converges(scene: &str, name: &str, extra: &[&str], against_beauty: bool) {
-    let dir = TempDir::new(name);
+    converges_at(scene, name, "3", extra, against_beauty);
+}
+
+fn converges_at(scene: &str, name: &str, seed: &str, extra: &[&str], against_beauty: bool) {
+    let dir = TempDir::new(&format!("{name}-{seed}"));
     let (beauty, indirect) = reference(scene);
     let out = dir.join("mcmc.exr");
     // Paths through the glass sphere mix slowly with σ = 0.01: the caustic scene needs more
     // mutations for its 32×32 blocks to settle within 5%. The image mean is b, tested at every
     // seed by `caustic_image_mean_is_b_and_within_2_percent_at_every_seed`.
     let mpp = if scene == CAUSTIC { "1024" } else { "512" };
-    let mut args = vec!["--mutations-per-pixel", mpp, "--seed", "3"];
+    let mut args = vec!["--mutations-per-pixel", mpp, "--seed", seed];
     args.extend_from_slice(extra);
     mmlt(&fixture(scene), &out, &args);
     assert_close(&out, if against_beauty { &beauty } else { &indirect });
@@ -102,9 +106,13 @@ fn indirect_converges_to_bpt_indirect_cornell() {
     converges(CORNELL, "ind-cornell", &[], false);
 }
 
+/// Every seed of 1–6 (worst 32×32 block 3.7, 1.9, 1.7, 3.0, 2.1, 4.0%; before b came from BPT
+/// passes and starts were capped, seeds 1 and 4 missed with 5.2% and 5.9%).
 #[test]
-fn indirect_converges_to_bpt_indirect_caustic() {
-    converges(CAUSTIC, "ind-caustic", &[], false);
+fn indirect_converges_to_bpt_indirect_caustic_at_every_seed() {
+    for seed in 1..=6 {
+        converges_at(CAUSTIC, "ind-caustic", &seed.to_string(), &[], false);
+    }
 }
 
 #[test]

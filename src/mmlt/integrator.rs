@@ -483,6 +483,44 @@ fn normalisation(
     (sums.iter().map(|v| v / n).collect(), passes)
 }
 
+/// `k` distinct indices of `weights` (fewer than its nonzero entries), each included with
+/// probability min(1, c·w) where c makes the probabilities sum to k, by systematic sampling
+/// (sampling ∝ weight without replacement). Plain resampling ∝ weight starts k·share chains on a
+/// sample holding that share of the weight: on the caustic scene (seed 4) one bright deep path
+/// held 11% of 700 000 bootstrap weights, ~29 of 256 chains started on it and stayed (acceptance
+/// 0.53 against 0.59 at other seeds; a 32×32 block 5.5% off). Capped, it starts one chain, and
+/// the chains' large steps find such states at their true rate.
+fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
+    let mut c = k as f64 / weights.iter().map(|&y| y as f64).sum::<f64>();
+    // Raising c until the capped probabilities sum to k: the set of capped samples only grows.
+    loop {
+        let (capped, free) = weights.iter().fold((0usize, 0.0f64), |(n, w), &y| {
+            if c * y as f64 >= 1.0 {
+                (n + 1, w)
+            } else {
+                (n, w + y as f64)
+            }
+        });
+        let next = (k - capped) as f64 / free;
+        if next <= c {
+            break;
+        }
+        c = next;
+    }
+    let mut picks = Vec::with_capacity(k);
+    let mut cum = 0.0f64;
+    for (i, &y) in weights.iter().enumerate() {
+        let before = cum;
+        cum += (c * y as f64).min(1.0);
+        // Sample i is chosen when a point offset + j falls in [before, cum).
+        let j = (cum - offset).ceil();
+        if j > (before - offset).ceil() && picks.len() < k {
+            picks.push(i);
+        }
+    }
+    picks
+}
+
 /// Start `s.chains` chains (at most one per pixel's mutation of a round) from bootstrap samples
 /// picked ∝ weight by stratified (systematic) resampling, each with its own mutation key. Every
 /// depth whose bootstrap found light first gets one chain of its own (picked ∝ weight within the
@@ -526,7 +564,14 @@ fn start_chains(
         Vec::new()
     };
     let rest = n - picks.len();
-    picks.extend((0..rest).map(|c| pick((c as f64 + offset) / rest as f64 * total)));
+    let lit = weights.iter().filter(|&&y| y > 0.0).count();
+    if lit <= rest {
+        picks.extend((0..rest).map(|c| pick((c as f64 + offset) / rest as f64 * total)));
+    } else {
+        picks.extend(capped_picks(weights, rest, offset));
+    }
+    // Rounding can leave the capped sampling one short of `n`.
+    let chains = picks.len();
     picks
         .par_iter()
         .enumerate()
@@ -538,7 +583,7 @@ fn start_chains(
             let current = evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth));
             sampler.accept();
             // Round mutations split as evenly as possible over the chains.
-            let quota = ((c + 1) * pixels / n - c * pixels / n) as u64;
+            let quota = ((c + 1) * pixels / chains - c * pixels / chains) as u64;
             Chain {
                 depth,
                 slot,
@@ -589,4 +634,36 @@ pub fn mcmc_image(
     }
     img.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::capped_picks;
+
+    #[test]
+    fn capped_picks_are_distinct_and_otherwise_follow_the_weights() {
+        // Sample 0 holds 100/110 of the weight: plain resampling would start ~2.7 of 3 chains on it.
+        let w = [100.0f32, 1.0, 1.0, 2.0, 0.0, 4.0, 2.0];
+        let mut count = [0usize; 7];
+        let offsets = 1000;
+        for o in 0..offsets {
+            let picks = capped_picks(&w, 3, (o as f64 + 0.5) / offsets as f64);
+            assert_eq!(picks.len(), 3, "{picks:?}");
+            assert!(picks.windows(2).all(|p| p[0] < p[1]), "{picks:?}");
+            for i in picks {
+                count[i] += 1;
+            }
+        }
+        // Sample 0 always, the zero never, the other two slots ∝ weight: c = 2 / 10.
+        assert_eq!(count[0], offsets);
+        assert_eq!(count[4], 0);
+        for (i, &y) in w.iter().enumerate().skip(1) {
+            let want = 0.2 * y as f64 * offsets as f64;
+            assert!(
+                (count[i] as f64 - want).abs() <= 1.0,
+                "{i}: {} vs {want}",
+                count[i]
+            );
+        }
+    }
 }

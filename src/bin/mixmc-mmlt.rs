@@ -41,6 +41,9 @@ struct Args {
     /// Bootstrap samples per rendered depth, for b and the chains' starting states.
     #[arg(long, default_value_t = 100_000)]
     bootstrap: usize,
+    /// BPT samples per pixel that estimate the normalisation b (the image's mean luminance).
+    #[arg(long, default_value_t = 32)]
+    b_spp: u64,
     /// Render depths 0 and 1 (direct light) too, not only indirect light.
     #[arg(long)]
     include_direct: bool,
@@ -70,8 +73,10 @@ fn main() -> ExitCode {
                 args.sigma
             )));
         }
-        if args.bootstrap == 0 || args.chains == 0 {
-            return Err(Error::new("--bootstrap and --chains must be at least 1"));
+        if args.bootstrap == 0 || args.chains == 0 || args.b_spp == 0 {
+            return Err(Error::new(
+                "--bootstrap, --b-spp and --chains must be at least 1",
+            ));
         }
         if args.kelemen_mis && args.large_step == 0.0 {
             return Err(Error::new("--kelemen-mis needs --large-step above 0"));
@@ -111,6 +116,7 @@ fn main() -> ExitCode {
             budget,
             chains: args.chains,
             bootstrap: args.bootstrap,
+            b_spp: args.b_spp,
             large_step: args.large_step,
             sigma: args.sigma,
             kelemen_mis: args.kelemen_mis,

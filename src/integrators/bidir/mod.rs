@@ -11,7 +11,7 @@ use crate::math::Rgb;
 use crate::rng::{Rng, Sampler};
 use crate::scene::Scene;
 use connect::connect;
-use path::{camera_subpath, light_subpath};
+use path::{Vertex, camera_subpath, light_subpath};
 use rayon::prelude::*;
 
 /// Which (s, t) strategies a method uses; MIS weights are computed over the same set.
@@ -51,6 +51,72 @@ struct Splat {
     value: Rgb,
 }
 
+/// Sub-path buffers reused across a thread's samples.
+#[derive(Default)]
+pub struct Paths {
+    cam: Vec<Vertex>,
+    light: Vec<Vertex>,
+}
+
+/// One bidirectional sample of pixel (x, y) in pass `pass`: a camera and a light sub-path joined
+/// by every strategy of `strategies` up to `max_depth`. `visit(depth, splat, value)` receives each
+/// MIS-weighted value, with `splat` the film pixel for light-tracing strategies (t = 1) and
+/// `None` for the pixel's own. Shared by the OMC passes and MMLT's estimate of its normalisation,
+/// which must see the same strategies and weights.
+#[allow(clippy::too_many_arguments)]
+pub fn trace_sample(
+    scene: &Scene,
+    strategies: Strategies,
+    max_depth: u32,
+    seed: u64,
+    pass: u64,
+    (x, y): (usize, usize),
+    paths: &mut Paths,
+    mut visit: impl FnMut(u32, Option<usize>, Rgb),
+) {
+    let (w, h) = (scene.width() as usize, scene.height() as usize);
+    let max_cam = max_depth as usize + 2;
+    let max_light = max_depth as usize + 1;
+    let Paths { cam, light } = paths;
+    let pixel = (y * w + x) as u64;
+    let mut rng = Rng::new(seed, pixel, pass);
+    let mut light_rng = Rng::new(seed ^ LIGHT_STREAM, pixel, pass);
+    let u = rng.next_2d();
+    let (fx, fy) = (x as f32 + u.x, y as f32 + u.y);
+    if strategies == Strategies::Lt {
+        // Only paths through a specular first vertex need the camera side.
+        let start = rng.clone();
+        camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), cam);
+        if cam.len() == 2 && cam[1].delta {
+            rng = start;
+            camera_subpath(scene, fx, fy, &mut rng, max_cam, cam);
+        } else {
+            cam.truncate(1);
+        }
+    } else {
+        camera_subpath(scene, fx, fy, &mut rng, max_cam, cam);
+    }
+    light_subpath(scene, &mut light_rng, max_light, light);
+    for t in 1..=cam.len() {
+        for s in 0..=light.len() {
+            if s + t < 2 || s + t - 2 > max_depth as usize {
+                continue;
+            }
+            let x1_delta = t >= 2 && cam[1].delta;
+            if !strategies.allowed(s, t, x1_delta) {
+                continue;
+            }
+            let Some(c) = connect(scene, light, cam, s, t, &mut rng, strategies) else {
+                continue;
+            };
+            let splat = c
+                .raster
+                .map(|(rx, ry)| (ry as usize).min(h - 1) * w + (rx as usize).min(w - 1));
+            visit((s + t - 2) as u32, splat, c.value);
+        }
+    }
+}
+
 pub fn render_pass(
     scene: &Scene,
     strategies: Strategies,
@@ -60,63 +126,31 @@ pub fn render_pass(
     film: &mut Film,
 ) {
     let w = film.width;
-    let max_cam = max_depth as usize + 2;
-    let max_light = max_depth as usize + 1;
     let rows: Vec<(Vec<[Rgb; 2]>, Vec<Splat>)> = (0..film.height)
         .into_par_iter()
         .map(|y| {
-            let mut cam = Vec::with_capacity(max_cam);
-            let mut light = Vec::with_capacity(max_light);
+            let mut paths = Paths::default();
             let mut own = vec![[Rgb::ZERO; 2]; w];
             let mut splats = Vec::new();
             for (x, own_px) in own.iter_mut().enumerate() {
-                let pixel = (y * w + x) as u64;
-                let mut rng = Rng::new(seed, pixel, pass);
-                let mut light_rng = Rng::new(seed ^ LIGHT_STREAM, pixel, pass);
-                let u = rng.next_2d();
-                let (fx, fy) = (x as f32 + u.x, y as f32 + u.y);
-                if strategies == Strategies::Lt {
-                    // Only paths through a specular first vertex need the camera side.
-                    let start = rng.clone();
-                    camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), &mut cam);
-                    if cam.len() == 2 && cam[1].delta {
-                        rng = start;
-                        camera_subpath(scene, fx, fy, &mut rng, max_cam, &mut cam);
-                    } else {
-                        cam.truncate(1);
-                    }
-                } else {
-                    camera_subpath(scene, fx, fy, &mut rng, max_cam, &mut cam);
-                }
-                light_subpath(scene, &mut light_rng, max_light, &mut light);
-                for t in 1..=cam.len() {
-                    for s in 0..=light.len() {
-                        if s + t < 2 || s + t - 2 > max_depth as usize {
-                            continue;
-                        }
-                        let x1_delta = t >= 2 && cam[1].delta;
-                        if !strategies.allowed(s, t, x1_delta) {
-                            continue;
-                        }
-                        let Some(c) = connect(scene, &light, &cam, s, t, &mut rng, strategies)
-                        else {
-                            continue;
-                        };
-                        let depth = (s + t - 2) as u32;
-                        match c.raster {
-                            Some((rx, ry)) => {
-                                let px = (ry as usize).min(film.height - 1) * w
-                                    + (rx as usize).min(w - 1);
-                                splats.push(Splat {
-                                    pixel: px as u32,
-                                    depth,
-                                    value: c.value,
-                                });
-                            }
-                            None => own_px[(depth >= 2) as usize] += c.value,
-                        }
-                    }
-                }
+                let visit = |depth: u32, splat: Option<usize>, value: Rgb| match splat {
+                    Some(px) => splats.push(Splat {
+                        pixel: px as u32,
+                        depth,
+                        value,
+                    }),
+                    None => own_px[(depth >= 2) as usize] += value,
+                };
+                trace_sample(
+                    scene,
+                    strategies,
+                    max_depth,
+                    seed,
+                    pass,
+                    (x, y),
+                    &mut paths,
+                    visit,
+                );
             }
             (own, splats)
         })

@@ -13,7 +13,7 @@ use crate::film::{Film, GBuffer};
 use crate::integrators::Method;
 use crate::layout::{Names, Preset, Source};
 use crate::mask::{MaskInput, MaskParams, build, mask_image};
-use crate::mmlt::{Mask, MmltSettings, mcmc_image, render as render_mmlt};
+use crate::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, mcmc_image, render as render_mmlt};
 use crate::omc::{OmcSettings, aov_image};
 use crate::render::{Budget, Rendered, continue_passes};
 use crate::scene::Scene;
@@ -184,6 +184,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         budget: Budget::Seconds((s.seconds - start.elapsed().as_secs_f64()).max(1e-3)),
         chains: s.chains,
         bootstrap: s.bootstrap,
+        b_spp: DEFAULT_B_SPP,
         large_step: 0.3,
         sigma: 0.01,
         kelemen_mis: false,

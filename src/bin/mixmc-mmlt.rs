@@ -5,7 +5,7 @@ use clap::Parser;
 use mixmc::Error;
 use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
 use mixmc::film::write_beauty_png;
-use mixmc::mmlt::{Mask, MmltSettings, mcmc_image, render};
+use mixmc::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, mcmc_image, render};
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
 use std::path::PathBuf;
@@ -42,7 +42,7 @@ struct Args {
     #[arg(long, default_value_t = 100_000)]
     bootstrap: usize,
     /// BPT samples per pixel that estimate the normalisation b (the image's mean luminance).
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = DEFAULT_B_SPP)]
     b_spp: u64,
     /// Render depths 0 and 1 (direct light) too, not only indirect light.
     #[arg(long)]

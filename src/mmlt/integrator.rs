@@ -98,6 +98,9 @@ impl Mask {
     }
 }
 
+/// BPT passes per pixel that estimate the normalisation b by default.
+pub const DEFAULT_B_SPP: u64 = 32;
+
 /// Everything that decides an MMLT render's values.
 #[derive(Clone, Debug)]
 pub struct MmltSettings {

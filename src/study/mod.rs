@@ -14,7 +14,7 @@ use crate::integrators::Method;
 use crate::mask::MaskParams;
 use crate::metrics::{Scores, scores};
 use crate::mix::{MixSettings, Split, mix};
-use crate::mmlt::{MmltSettings, render as render_mmlt};
+use crate::mmlt::{DEFAULT_B_SPP, MmltSettings, render as render_mmlt};
 use crate::omc::{OmcSettings, render as render_omc};
 use crate::progress::Progress;
 use crate::render::Budget;
@@ -231,6 +231,7 @@ fn render_one(
                     budget: Budget::Seconds(budget),
                     chains: 256,
                     bootstrap: plan.bootstrap,
+                    b_spp: DEFAULT_B_SPP,
                     large_step: 0.3,
                     sigma: 0.01,
                     kelemen_mis: method == StudyMethod::Kelemen,

@@ -108,15 +108,15 @@ pub fn composite(omc: Input, mask: Input, mcmc: Input, opts: Options) -> Result<
     }
     let d = omc
         .image
-        .require_rgb(["direct.R", "direct.G", "direct.B"])
+        .require_finite_rgb(["direct.R", "direct.G", "direct.B"])
         .map_err(|e| e.with_file(omc.path))?;
     let i_omc = omc
         .image
-        .require_rgb(["indirect.R", "indirect.G", "indirect.B"])
+        .require_finite_rgb(["indirect.R", "indirect.G", "indirect.B"])
         .map_err(|e| e.with_file(omc.path))?;
     let i_mcmc = mcmc
         .image
-        .require_rgb(RGB)
+        .require_finite_rgb(RGB)
         .map_err(|e| e.with_file(mcmc.path))?;
     let alpha = mask
         .image

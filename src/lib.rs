@@ -15,6 +15,7 @@ pub mod integrators;
 pub mod lights;
 pub mod mask;
 pub mod math;
+pub mod memory;
 pub mod merge;
 pub mod metrics;
 pub mod mmlt;

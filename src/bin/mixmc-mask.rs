@@ -206,7 +206,11 @@ fn main() -> ExitCode {
             normal: args.normal.clone(),
             matid: args.matid.clone(),
         };
-        let input = MaskInput::from_exr(&img, &channels).map_err(|e| e.with_file(&args.input))?;
+        let (input, warnings) =
+            MaskInput::from_exr(&img, &channels).map_err(|e| e.with_file(&args.input))?;
+        for w in warnings {
+            eprintln!("mixmc-mask: {}: warning: {w}", args.input.display());
+        }
         if fov_source == "fallback" {
             eprintln!(
                 "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",

@@ -57,54 +57,74 @@ fn three_names(spec: &str, suffixes: [&str; 3]) -> Result<[String; 3]> {
     }
 }
 
-/// Refuse NaN (and, where `finite`, ±∞): they would poison the median and the segment rule.
-fn check_values(name: &str, data: &[f32], finite: bool) -> Result<()> {
-    let bad = data
-        .iter()
-        .filter(|v| if finite { !v.is_finite() } else { v.is_nan() })
-        .count();
-    if bad > 0 {
-        let what = if finite { "non-finite" } else { "NaN" };
-        return Err(Error::new(format!(
-            "channel `{name}` has {bad} {what} values"
-        )));
+/// Count the non-finite values of a channel and replace them by `fill`, returning a warning.
+/// Renderers write NaN or ∞ where a sample failed; refusing the whole image for a few pixels
+/// would help no one, so the mask goes on and says what it did.
+fn repair(name: &str, data: &mut [f32], fill: f32, meaning: &str) -> Option<String> {
+    let mut bad = 0usize;
+    for v in data.iter_mut().filter(|v| !v.is_finite()) {
+        *v = fill;
+        bad += 1;
     }
-    Ok(())
+    (bad > 0).then(|| format!("channel `{name}` has {bad} non-finite values; {meaning}"))
 }
 
 impl MaskInput {
     /// Collect and check the channels named by `ch`; errors say which channel is wrong.
-    pub fn from_exr(img: &ExrImage, ch: &Channels) -> Result<MaskInput> {
+    /// Non-finite light counts as no light (0) and a non-finite normal or material id makes
+    /// the pixel background (matid −1); each such repair adds a line to `warnings`.
+    pub fn from_exr(img: &ExrImage, ch: &Channels) -> Result<(MaskInput, Vec<String>)> {
         if img.width == 0 || img.height == 0 {
             return Err(Error::new("the image is empty"));
         }
         let ind_names = three_names(&ch.indirect, ["R", "G", "B"])?;
         let nrm_names = three_names(&ch.normal, ["X", "Y", "Z"])?;
-        let indirect = img.require_rgb(ind_names.each_ref().map(String::as_str))?;
-        for n in &ind_names {
-            check_values(n, img.require(n)?, true)?;
-        }
+        let mut warnings = Vec::new();
+        let mut channel = |name: &str, fill: f32, meaning: &str| -> Result<Vec<f32>> {
+            let mut data = img.require(name)?.to_vec();
+            warnings.extend(repair(name, &mut data, fill, meaning));
+            Ok(data)
+        };
+        let [r, g, b] = ind_names
+            .each_ref()
+            .map(|n| channel(n, 0.0, "they count as no indirect light"));
+        let (r, g, b) = (r?, g?, b?);
+        let background = "those pixels count as background";
+        let [nx, ny, nz] = nrm_names
+            .each_ref()
+            .map(|n| channel(n, f32::NAN, background));
+        let (nx, ny, nz) = (nx?, ny?, nz?);
+        // Depth: non-finite already means background (DESIGN §3); NaN is kept as is.
         let depth = img.require(&ch.depth)?.to_vec();
-        check_values(&ch.depth, &depth, false)?;
-        let normal = img.require_rgb(nrm_names.each_ref().map(String::as_str))?;
-        for n in &nrm_names {
-            check_values(n, img.require(n)?, true)?;
+        let mut matid = img.require_id(&ch.matid)?.to_vec();
+        warnings.extend(repair(&ch.matid, &mut matid, -1.0, background));
+        let mut normal = Vec::with_capacity(matid.len());
+        for (i, id) in matid.iter_mut().enumerate() {
+            let n = [nx[i], ny[i], nz[i]];
+            if n.iter().all(|c| c.is_finite()) {
+                normal.push(n);
+            } else {
+                *id = -1.0;
+                normal.push([0.0; 3]);
+            }
         }
-        let matid = img.require(&ch.matid)?.to_vec();
-        check_values(&ch.matid, &matid, true)?;
+        let indirect: Vec<[f32; 3]> = (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect();
         let luminance = indirect
             .iter()
             .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
             .collect();
-        Ok(MaskInput {
-            width: img.width,
-            height: img.height,
-            luminance,
-            depth,
-            normal,
-            matid,
-            indirect,
-        })
+        Ok((
+            MaskInput {
+                width: img.width,
+                height: img.height,
+                luminance,
+                depth,
+                normal,
+                matid,
+                indirect,
+            },
+            warnings,
+        ))
     }
 }
 
@@ -126,7 +146,7 @@ mod tests {
     }
 
     #[test]
-    fn nan_is_refused_with_the_channel_name() {
+    fn non_finite_values_are_repaired_with_a_warning() {
         let mut img = ExrImage::new(2, 1);
         for n in [
             "indirect.R",
@@ -137,15 +157,22 @@ mod tests {
             "N.Z",
             "matid",
         ] {
-            img.add(n, vec![0.0, 0.0]);
+            img.add(n, vec![0.5, 0.5]);
         }
         img.add("Z", vec![1.0, f32::INFINITY]);
-        assert!(MaskInput::from_exr(&img, &Channels::default()).is_ok());
-        img.add("indirect.G", vec![0.0, f32::NAN]);
-        let e = MaskInput::from_exr(&img, &Channels::default()).unwrap_err();
+        let (clean, w) = MaskInput::from_exr(&img, &Channels::default()).unwrap();
+        assert!(w.is_empty() && clean.matid == [0.5, 0.5]);
+        img.add("indirect.G", vec![0.5, f32::NAN]);
+        img.add("N.Y", vec![f32::INFINITY, 0.5]);
+        let (input, w) = MaskInput::from_exr(&img, &Channels::default()).unwrap();
+        assert_eq!(w.len(), 2, "{w:?}");
         assert!(
-            e.message.contains("indirect.G") && e.message.contains("non-finite"),
-            "{e}"
+            w[0].contains("indirect.G") && w[0].contains("1 non-finite"),
+            "{w:?}"
         );
+        assert_eq!(input.indirect[1], [0.5, 0.0, 0.5]);
+        assert_eq!(input.luminance[1], 0.2126 * 0.5 + 0.0722 * 0.5);
+        assert_eq!((input.matid[0], input.normal[0]), (-1.0, [0.0; 3]));
+        assert_eq!((input.matid[1], input.normal[1]), (0.5, [0.5; 3]));
     }
 }

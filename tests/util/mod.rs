@@ -19,6 +19,9 @@ pub fn bin(name: &str) -> PathBuf {
         "mixmc-scene" => env!("CARGO_BIN_EXE_mixmc-scene"),
         "mixmc-diff" => env!("CARGO_BIN_EXE_mixmc-diff"),
         "mixmc-mmlt" => env!("CARGO_BIN_EXE_mixmc-mmlt"),
+        "mixmc-mask" => env!("CARGO_BIN_EXE_mixmc-mask"),
+        "mixmc-composite" => env!("CARGO_BIN_EXE_mixmc-composite"),
+        "mixmc-merge" => env!("CARGO_BIN_EXE_mixmc-merge"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

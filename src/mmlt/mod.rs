@@ -5,4 +5,4 @@
 pub mod integrator;
 pub mod sampler;
 
-pub use integrator::{Mask, MmltResult, MmltSettings, mcmc_image, render};
+pub use integrator::{Mask, MmltResult, MmltSettings, check_memory, mcmc_image, render};

@@ -21,6 +21,7 @@ pub fn bin(name: &str) -> PathBuf {
         "mixmc-mmlt" => env!("CARGO_BIN_EXE_mixmc-mmlt"),
         "mixmc-mask" => env!("CARGO_BIN_EXE_mixmc-mask"),
         "mixmc-composite" => env!("CARGO_BIN_EXE_mixmc-composite"),
+        "mixmc-merge" => env!("CARGO_BIN_EXE_mixmc-merge"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

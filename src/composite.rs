@@ -6,7 +6,7 @@
 //! along a seam of different noise, which FXAA softens; nothing else is filtered.
 
 use crate::error::{Error, Result};
-use crate::exrio::ExrImage;
+use crate::exrio::{ExrImage, check_finite_rgb};
 use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
 use crate::fxaa::fxaa;
 use crate::layout::Source;
@@ -117,9 +117,11 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     }
     let d = omc.source.direct().map_err(|e| e.with_file(omc.path))?;
     let i_omc = omc.source.indirect().map_err(|e| e.with_file(omc.path))?;
+    check_finite_rgb(&d, w, "the direct light").map_err(|e| e.with_file(omc.path))?;
+    check_finite_rgb(&i_omc, w, "the indirect light").map_err(|e| e.with_file(omc.path))?;
     let i_mcmc = mcmc
         .image
-        .require_rgb(RGB)
+        .require_finite_rgb(RGB)
         .map_err(|e| e.with_file(mcmc.path))?;
     let alpha = mask
         .image

@@ -6,6 +6,7 @@ use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use exr::prelude::*;
 use std::collections::BTreeMap;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 /// A header attribute value.
@@ -22,6 +23,9 @@ pub struct ExrImage {
     pub height: usize,
     pub channels: Vec<(String, Vec<f32>)>,
     pub attributes: BTreeMap<String, Attr>,
+    /// Channels the file stores as 32-bit unsigned integers (ids, not light): `require`
+    /// refuses them, `require_id` takes them.
+    pub integer_channels: Vec<String>,
 }
 
 /// Refuse files whose header asks for more than this many samples (channels × pixels) before
@@ -40,6 +44,7 @@ impl ExrImage {
     pub fn add(&mut self, name: &str, data: Vec<f32>) {
         debug_assert_eq!(data.len(), self.width * self.height);
         self.channels.retain(|(n, _)| n != name);
+        self.integer_channels.retain(|n| n != name);
         self.channels.push((name.to_string(), data));
     }
 
@@ -62,8 +67,19 @@ impl ExrImage {
             .map(|(_, d)| d.as_slice())
     }
 
-    /// A channel that must be there; the error lists what the file has.
+    /// A float channel that must be there; the error lists what the file has. Integer channels
+    /// are refused: a u32 where light, depth or α belongs means the wrong channel was named.
     pub fn require(&self, name: &str) -> Result<&[f32]> {
+        if self.integer_channels.iter().any(|n| n == name) {
+            return Err(Error::new(format!(
+                "channel `{name}` holds 32-bit integers, not floats"
+            )));
+        }
+        self.require_id(name)
+    }
+
+    /// A channel that must be there, float or integer (material or object ids).
+    pub fn require_id(&self, name: &str) -> Result<&[f32]> {
         self.get(name).ok_or_else(|| {
             let have: Vec<&str> = self.channels.iter().map(|(n, _)| n.as_str()).collect();
             Error::new(format!(
@@ -81,6 +97,14 @@ impl ExrImage {
             self.require(names[2])?,
         );
         Ok((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
+    }
+
+    /// Three channels as RGB triples that must all be finite: one NaN or ∞ would make every
+    /// blend and error metric computed from the image meaningless.
+    pub fn require_finite_rgb(&self, names: [&str; 3]) -> Result<Vec<[f32; 3]>> {
+        let rgb = self.require_rgb(names)?;
+        check_finite_rgb(&rgb, self.width, &names.join(","))?;
+        Ok(rgb)
     }
 
     pub fn set_text(&mut self, key: &str, value: impl Into<String>) {
@@ -108,26 +132,47 @@ impl ExrImage {
 
     /// Read every channel of every layer as f32.
     pub fn read(path: &Path) -> Result<ExrImage> {
-        let fail = |e: exr::error::Error| Error::in_file(path, format!("not a readable EXR: {e}"));
-        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(fail)?;
-        let mut samples = 0usize;
+        let file = std::fs::File::open(path)
+            .map_err(|e| Error::in_file(path, format!("cannot read: {e}")))?;
+        ExrImage::read_from(std::io::BufReader::new(file)).map_err(|e| e.with_file(path))
+    }
+
+    /// Read an EXR held in memory (what the fuzz target feeds; errors name no file).
+    pub fn from_bytes(bytes: &[u8]) -> Result<ExrImage> {
+        ExrImage::read_from(std::io::Cursor::new(bytes))
+    }
+
+    /// Read the headers first and refuse sizes that cannot be right or cannot fit before the exr
+    /// crate allocates the pixels, then read the pixels.
+    fn read_from(mut reader: impl Read + Seek) -> Result<ExrImage> {
+        let fail = |e: exr::error::Error| Error::new(format!("not a readable EXR: {e}"));
+        let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false).map_err(fail)?;
+        let (mut samples, mut bytes) = (0usize, 0u64);
         for h in &meta.headers {
             let px = h.layer_size.width().saturating_mul(h.layer_size.height());
-            samples = samples.saturating_add(px.saturating_mul(h.channels.list.len()));
+            for c in &h.channels.list {
+                samples = samples.saturating_add(px);
+                // The exr crate's decoded copy plus ours as f32.
+                let size = c.sample_type.bytes_per_sample() as u64 + 4;
+                bytes = bytes.saturating_add((px as u64).saturating_mul(size));
+            }
         }
         if samples > MAX_SAMPLES {
-            return Err(Error::in_file(
-                path,
-                format!("EXR header asks for {samples} samples, more than the limit {MAX_SAMPLES}"),
-            ));
+            return Err(Error::new(format!(
+                "EXR header asks for {samples} samples, more than the limit {MAX_SAMPLES}"
+            )));
         }
+        crate::memory::check("reading this EXR", bytes)?;
+        reader
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| Error::new(format!("cannot read: {e}")))?;
         let image = read()
             .no_deep_data()
             .largest_resolution_level()
             .all_channels()
             .all_layers()
             .all_attributes()
-            .from_file(path)
+            .from_buffered(reader)
             .map_err(fail)?;
         let mut out = ExrImage::default();
         for (li, layer) in image.layer_data.iter().enumerate() {
@@ -136,7 +181,7 @@ impl ExrImage {
                 out.width = w;
                 out.height = h;
             } else if (w, h) != (out.width, out.height) {
-                return Err(Error::in_file(path, "EXR parts have different sizes"));
+                return Err(Error::new("EXR parts have different sizes"));
             }
             let prefix = layer
                 .attributes
@@ -149,6 +194,9 @@ impl ExrImage {
                     Some(p) if !ch.name.to_string().starts_with(p) => format!("{p}{}", ch.name),
                     _ => ch.name.to_string(),
                 };
+                if let FlatSamples::U32(_) = ch.sample_data {
+                    out.integer_channels.push(name.clone());
+                }
                 out.channels
                     .push((name, ch.sample_data.values_as_f32().collect()));
             }
@@ -201,6 +249,20 @@ impl ExrImage {
                 .map_err(|e| Error::in_file(path, format!("cannot write EXR: {e}")))
         })
     }
+}
+
+/// Refuse non-finite RGB values, which can be neither blended nor compared; `what` names them.
+pub fn check_finite_rgb(rgb: &[[f32; 3]], width: usize, what: &str) -> Result<()> {
+    let finite = |c: &[f32; 3]| c.iter().all(|v| v.is_finite());
+    if let Some(p) = rgb.iter().position(|c| !finite(c)) {
+        let n = rgb.iter().filter(|c| !finite(c)).count();
+        return Err(Error::new(format!(
+            "{n} pixels of {what} are not finite (the first at ({}, {}))",
+            p % width.max(1),
+            p / width.max(1)
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -233,12 +233,20 @@ impl Source {
     /// A channel of file `i`, with an error naming the preset and what it expected.
     fn channel(&self, i: usize, name: &str) -> Result<&[f32]> {
         let (label, img) = self.file(i);
-        img.require(name).map_err(|e| {
-            Error::in_file(
-                label,
-                format!("--layout {}: {}", self.preset.name(), e.message),
-            )
-        })
+        img.require(name).map_err(|e| self.located(label, e))
+    }
+
+    /// A channel of ids: 32-bit integers are as good as floats there.
+    fn id_channel(&self, i: usize, name: &str) -> Result<&[f32]> {
+        let (label, img) = self.file(i);
+        img.require_id(name).map_err(|e| self.located(label, e))
+    }
+
+    fn located(&self, label: &str, e: Error) -> Error {
+        Error::in_file(
+            label,
+            format!("--layout {}: {}", self.preset.name(), e.message),
+        )
     }
 
     fn rgb(&self, i: usize, names: [&str; 3]) -> Result<Rgb> {
@@ -373,12 +381,12 @@ impl Source {
     /// Material id (Mitsuba: shape index, its only id AOV).
     pub fn matid(&self) -> Result<Vec<f32>> {
         Ok(match self.preset {
-            Preset::Mixmc => self.channel(0, &self.names.matid)?.to_vec(),
+            Preset::Mixmc => self.id_channel(0, &self.names.matid)?.to_vec(),
             Preset::Cycles => self
-                .channel(0, &format!("{CYCLES_LAYER}.Material Index.X"))?
+                .id_channel(0, &format!("{CYCLES_LAYER}.Material Index.X"))?
                 .to_vec(),
             Preset::Luxcore => self.lux_matid.clone().expect("read in open_luxcore"),
-            Preset::Mitsuba => self.channel(0, "shape.I")?.to_vec(),
+            Preset::Mitsuba => self.id_channel(0, "shape.I")?.to_vec(),
         })
     }
 

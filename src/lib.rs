@@ -16,6 +16,7 @@ pub mod layout;
 pub mod lights;
 pub mod mask;
 pub mod math;
+pub mod memory;
 pub mod merge;
 pub mod metrics;
 pub mod mix;

@@ -13,7 +13,9 @@ use crate::film::{Film, GBuffer};
 use crate::integrators::Method;
 use crate::layout::{Names, Preset, Source};
 use crate::mask::{MaskInput, MaskParams, build, mask_image};
-use crate::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, mcmc_image, render as render_mmlt};
+use crate::mmlt::{
+    DEFAULT_B_SPP, Mask, MmltSettings, check_memory, mcmc_image, render as render_mmlt,
+};
 use crate::omc::{OmcSettings, aov_image};
 use crate::render::{Budget, Rendered, continue_passes};
 use crate::scene::Scene;
@@ -115,6 +117,24 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     }
     let start = Instant::now();
     let (w, h) = (scene.width() as usize, scene.height() as usize);
+    let mut mmlt_settings = MmltSettings {
+        min_depth: 2,
+        max_depth: s.max_depth,
+        // MMLT keys its numbers with its own constants (src/mmlt/sampler.rs): the same seed
+        // never repeats OMC's numbers.
+        seed: s.seed,
+        // Set when MMLT starts, to what is left of the budget.
+        budget: Budget::Seconds(s.seconds),
+        chains: s.chains,
+        bootstrap: s.bootstrap,
+        b_spp: DEFAULT_B_SPP,
+        large_step: 0.3,
+        sigma: 0.01,
+        kelemen_mis: false,
+        quiet: s.quiet,
+    };
+    crate::omc::check_memory(w, h)?;
+    check_memory(w, h, &mmlt_settings)?;
     let omc_settings = OmcSettings {
         method: s.omc,
         max_depth: s.max_depth,
@@ -122,9 +142,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         budget: Budget::Seconds(s.seconds),
         quiet: s.quiet,
     };
-    let pass = |index: u64, film: &mut Film| {
-        s.omc.render_pass(scene, s.max_depth, s.seed, index, film)
-    };
+    let pass =
+        |index: u64, film: &mut Film| s.omc.render_pass(scene, s.max_depth, s.seed, index, film);
     let label = format!("mix 1/3: {} (mask snapshot)", s.omc.name());
     let empty = Rendered {
         film: Film::new(w, h),
@@ -150,7 +169,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         ..s.mask.clone()
     };
     let snapshot_name = dir.join(KEEP_NAMES[0]).display().to_string();
-    let input = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
+    let (input, _) = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
     let m = build(&input, &params);
     let mask_img = mask_image(
         &m,
@@ -175,26 +194,13 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let omc_seconds = r.seconds;
 
     let mut partial = r.partial;
-    let mmlt_settings = MmltSettings {
-        min_depth: 2,
-        max_depth: s.max_depth,
-        // MMLT keys its numbers with its own constants (src/mmlt/sampler.rs): the same seed
-        // never repeats OMC's numbers.
-        seed: s.seed,
-        budget: Budget::Seconds((s.seconds - start.elapsed().as_secs_f64()).max(1e-3)),
-        chains: s.chains,
-        bootstrap: s.bootstrap,
-        b_spp: DEFAULT_B_SPP,
-        large_step: 0.3,
-        sigma: 0.01,
-        kelemen_mis: false,
-        quiet: s.quiet,
-    };
     let mask_name = dir.join(KEEP_NAMES[2]);
     let mmlt_mask = Mask::from_alpha(&mask_name, w, h, m.alpha.clone());
     let (mcmc, mmlt_seconds) = if partial {
         (None, 0.0)
     } else {
+        mmlt_settings.budget =
+            Budget::Seconds((s.seconds - start.elapsed().as_secs_f64()).max(1e-3));
         let r = render_mmlt(scene, Some(&mmlt_mask), &mmlt_settings);
         partial = r.partial;
         let seconds = r.seconds;

@@ -16,6 +16,20 @@ pub struct OmcSettings {
     pub quiet: bool,
 }
 
+/// Peak memory of an OMC render per pixel, rounded up from the 173 B measured at 3840×2160
+/// (PT, 1 spp, `/usr/bin/time -v`; docs/hardening.md): the film's sums, the G-buffer, the image's
+/// 16 float channels and the copy the EXR writer makes of them.
+pub const BYTES_PER_PIXEL: u64 = 200;
+
+/// Refuse a film that cannot fit in memory, before anything is rendered.
+pub fn check_memory(width: usize, height: usize) -> crate::Result<()> {
+    let pixels = (width * height) as u64;
+    crate::memory::check(
+        &format!("a {width}x{height} render"),
+        pixels.saturating_mul(BYTES_PER_PIXEL),
+    )
+}
+
 /// Render and return the AOV image with its header attributes.
 pub fn render(scene: &Scene, s: &OmcSettings) -> ExrImage {
     let (w, h) = (scene.width() as usize, scene.height() as usize);

@@ -49,7 +49,10 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
     let snap_spp = snapshot.float_attr("mixmc.spp").unwrap();
     assert!((1.0..=16.0).contains(&snap_spp), "snapshot {snap_spp} spp");
     let spp = omc.float_attr("mixmc.spp").unwrap();
-    assert!(spp >= snap_spp, "OMC lost passes after the snapshot: {spp} spp");
+    assert!(
+        spp >= snap_spp,
+        "OMC lost passes after the snapshot: {spp} spp"
+    );
     assert_eq!(fin.float_attr("mixmc.spp"), Some(spp));
     assert!(mcmc.float_attr("mixmc.mutations_per_pixel").unwrap() >= 1.0);
     let secs = fin.float_attr("mixmc.seconds").unwrap();
@@ -127,7 +130,10 @@ fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
     assert!(mask.require("alpha").unwrap().iter().all(|&a| a == 1.0));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
-    for (c, d) in ["R", "G", "B"].iter().zip(["direct.R", "direct.G", "direct.B"]) {
+    for (c, d) in ["R", "G", "B"]
+        .iter()
+        .zip(["direct.R", "direct.G", "direct.B"])
+    {
         let expect: Vec<f32> = omc
             .require(d)
             .unwrap()
@@ -150,7 +156,11 @@ fn bad_arguments_are_one_line_errors() {
         (vec!["--mask-spp", "0"], "at least 1"),
         (vec!["--max-depth", "5000"], "--max-depth 5000 exceeds"),
     ] {
-        let mut args = vec![fixture("scenes/clean-tiny.json"), "-o".into(), p(&out).into()];
+        let mut args = vec![
+            fixture("scenes/clean-tiny.json"),
+            "-o".into(),
+            p(&out).into(),
+        ];
         args.extend(extra.iter().map(|s| s.to_string()));
         let o = std::process::Command::new(bin("mixmc-mix"))
             .args(&args)

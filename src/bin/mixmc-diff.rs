@@ -67,10 +67,10 @@ fn main() -> ExitCode {
             ));
         }
         let mut a = image
-            .require_rgb(["R", "G", "B"])
+            .require_finite_rgb(["R", "G", "B"])
             .map_err(|e| e.with_file(&args.image))?;
         let mut b = reference
-            .require_rgb(["R", "G", "B"])
+            .require_finite_rgb(["R", "G", "B"])
             .map_err(|e| e.with_file(&args.reference))?;
         let (mut w, mut h) = (image.width, image.height);
         if let Some(region) = args.crop {

@@ -148,7 +148,11 @@ fn main() -> ExitCode {
         let input_path = &args.inputs[0];
         let (fov_y, fov_source) = fov(&args, &src);
         let params = args.params(fov_y)?;
-        let input = MaskInput::from_source(&src).map_err(|e| e.with_file(input_path))?;
+        let (input, warnings) =
+            MaskInput::from_source(&src).map_err(|e| e.with_file(input_path))?;
+        for w in warnings {
+            eprintln!("mixmc-mask: {}: warning: {w}", input_path.display());
+        }
         if fov_source == "fallback" {
             eprintln!(
                 "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",

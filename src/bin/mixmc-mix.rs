@@ -117,7 +117,12 @@ fn main() -> ExitCode {
         let dir = args.keep.clone().unwrap_or_default();
         let m = mix(&scene, &settings, &dir)?;
         if let Some(dir) = &args.keep {
-            let files = [Some(&m.snapshot), Some(&m.omc), Some(&m.mask), m.mcmc.as_ref()];
+            let files = [
+                Some(&m.snapshot),
+                Some(&m.omc),
+                Some(&m.mask),
+                m.mcmc.as_ref(),
+            ];
             for (name, img) in KEEP_NAMES.iter().zip(files) {
                 if let Some(img) = img {
                     img.write(&Path::new(dir).join(name), false)?;

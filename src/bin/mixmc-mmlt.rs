@@ -5,7 +5,7 @@ use clap::Parser;
 use mixmc::Error;
 use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
 use mixmc::film::write_beauty_png;
-use mixmc::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, mcmc_image, render};
+use mixmc::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, check_memory, mcmc_image, render};
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
 use std::path::PathBuf;
@@ -87,6 +87,7 @@ fn main() -> ExitCode {
             None => args.render.budget(64)?,
         };
         let scene = Scene::load(&args.scene)?;
+        scene.print_warnings("mixmc-mmlt");
         let (w, h) = (scene.width() as usize, scene.height() as usize);
         let mask = match &args.mask {
             Some(p) => Some(Mask::load(p, w, h)?),
@@ -122,6 +123,7 @@ fn main() -> ExitCode {
             kelemen_mis: args.kelemen_mis,
             quiet: args.render.quiet,
         };
+        check_memory(w, h, &settings).map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();
         let r = render(&scene, mask.as_ref(), &settings);
         let mut img = mcmc_image(&scene, mask.as_ref(), &settings, &r);

@@ -47,12 +47,9 @@ fn main() -> ExitCode {
             budget: args.render.budget(64)?,
             quiet: args.render.quiet,
         };
-        if scene.lights.is_empty() {
-            eprintln!(
-                "mixmc-omc: {}: warning: the scene has no lights; the image is black",
-                args.scene.display()
-            );
-        }
+        scene.print_warnings("mixmc-omc");
+        mixmc::omc::check_memory(scene.width() as usize, scene.height() as usize)
+            .map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();
         let mut img = render(&scene, &settings);
         img.set_text(COMMAND_ATTR, command_line());
@@ -61,6 +58,16 @@ fn main() -> ExitCode {
             write_beauty_png(png, &img)?;
         }
         let partial = img.text_attr("mixmc.partial").as_deref() == Some("true");
+        let black = ["R", "G", "B"]
+            .iter()
+            .all(|c| img.get(c).is_some_and(|v| v.iter().all(|&x| x == 0.0)));
+        if black && !partial && !scene.lights.is_empty() {
+            eprintln!(
+                "mixmc-omc: {}: warning: the image is black: is the camera inside an object, or \
+                 are the lights hidden from everything it sees?",
+                args.scene.display()
+            );
+        }
         let spp = img.float_attr("mixmc.spp").unwrap_or(0.0);
         let secs = img.float_attr("mixmc.seconds").unwrap_or(0.0);
         println!(

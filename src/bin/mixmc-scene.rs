@@ -123,6 +123,7 @@ fn main() -> ExitCode {
         match Args::parse().command {
             Command::Info { scene } => {
                 let s = Scene::load(&scene)?;
+                s.print_warnings("mixmc-scene");
                 println!("scene      {}", s.path.display());
                 println!("film       {}x{}", s.width(), s.height());
                 println!("max_depth  {}", s.max_depth);
@@ -156,12 +157,14 @@ fn main() -> ExitCode {
                 kind,
             } => {
                 let s = Scene::load(&scene)?;
+                s.print_warnings("mixmc-scene");
                 let rgb = preview(&s, kind);
                 write_png(&output, s.width() as usize, s.height() as usize, &rgb)?;
                 println!("{}", output.display());
             }
             Command::Export { scene, mitsuba } => {
                 let s = Scene::load(&scene)?;
+                s.print_warnings("mixmc-scene");
                 export_mitsuba(&s, &mitsuba)?;
                 println!("{}", mitsuba.join("scene.xml").display());
             }

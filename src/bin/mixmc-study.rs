@@ -174,8 +174,11 @@ fn write_outputs(res: &Results, dir: &Path, command: &str) -> Result<()> {
             continue;
         }
         let omc = paper_omc(&show.scene).name();
-        let (x, y, win) =
-            chart::write_crops(show, omc, &dir.join("crops").join(format!("{}.png", show.scene)))?;
+        let (x, y, win) = chart::write_crops(
+            show,
+            omc,
+            &dir.join("crops").join(format!("{}.png", show.scene)),
+        )?;
         md.push_str(&format!(
             "**{}**: the {win}×{win} window at ({x}, {y}) where {omc} is furthest from the \
              reference; panels left to right: reference, {}.\n\n![{}](crops/{}.png)\n\n",

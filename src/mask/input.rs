@@ -1,8 +1,9 @@
 //! The mask's input: indirect light, depth, normal and material id, taken from any renderer's
-//! files through a `layout::Source` (ours by default, DESIGN §3 and §7), checked so that bad
-//! files fail with one line.
+//! files through a `layout::Source` (ours by default, DESIGN §3 and §7). Non-finite values are
+//! repaired with a warning rather than refused: renderers write NaN or ∞ where a sample failed,
+//! and refusing a whole image for a few pixels would help no one.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::layout::Source;
 
 /// Everything the mask reads, per pixel, row-major.
@@ -19,42 +20,76 @@ pub struct MaskInput {
     pub indirect: Vec<[f32; 3]>,
 }
 
-/// Refuse NaN (and, where `finite`, ±∞): they would poison the median and the segment rule.
-fn check_values<'a>(what: &str, data: impl Iterator<Item = &'a f32>, finite: bool) -> Result<()> {
-    let bad = data
-        .filter(|v| if finite { !v.is_finite() } else { v.is_nan() })
-        .count();
-    if bad > 0 {
-        let kind = if finite { "non-finite" } else { "NaN" };
-        return Err(Error::new(format!("{what} has {bad} {kind} values")));
+/// Replace the non-finite values of one quantity's component by `fill`; a warning names the
+/// quantity by our channel name (`indirect.G`, `N.X`, `matid`) and says what was done.
+fn repair<'a>(
+    name: &str,
+    data: impl Iterator<Item = &'a mut f32>,
+    fill: f32,
+    meaning: &str,
+) -> Option<String> {
+    let mut bad = 0usize;
+    for v in data.filter(|v| !v.is_finite()) {
+        *v = fill;
+        bad += 1;
     }
-    Ok(())
+    (bad > 0).then(|| format!("channel `{name}` has {bad} non-finite values; {meaning}"))
 }
 
 impl MaskInput {
-    /// Collect and check what the mask needs; errors say which quantity is wrong.
-    pub fn from_source(src: &Source) -> Result<MaskInput> {
-        let indirect = src.indirect()?;
-        check_values("the indirect light", indirect.iter().flatten(), true)?;
+    /// Collect what the mask needs, with one warning per repaired quantity: non-finite light
+    /// counts as no light (0), a non-finite normal or material id makes the pixel background
+    /// (matid −1). Depth keeps non-finite values: they already mean background (DESIGN §3).
+    pub fn from_source(src: &Source) -> Result<(MaskInput, Vec<String>)> {
+        let mut indirect = src.indirect()?;
         let depth = src.depth()?;
-        check_values("the depth", depth.iter(), false)?;
-        let normal = src.normal()?;
-        check_values("the normal", normal.iter().flatten(), true)?;
-        let matid = src.matid()?;
-        check_values("the material id", matid.iter(), true)?;
+        let mut normal = src.normal()?;
+        let mut matid = src.matid()?;
+        let mut warnings = Vec::new();
+        let no_light = "they count as no indirect light";
+        for (c, name) in ["indirect.R", "indirect.G", "indirect.B"]
+            .iter()
+            .enumerate()
+        {
+            warnings.extend(repair(
+                name,
+                indirect.iter_mut().map(|p| &mut p[c]),
+                0.0,
+                no_light,
+            ));
+        }
+        let background = "those pixels count as background";
+        for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
+            warnings.extend(repair(
+                name,
+                normal.iter_mut().map(|p| &mut p[c]),
+                f32::NAN,
+                background,
+            ));
+        }
+        warnings.extend(repair("matid", matid.iter_mut(), -1.0, background));
+        for (id, n) in matid.iter_mut().zip(normal.iter_mut()) {
+            if n.iter().any(|c| c.is_nan()) {
+                *id = -1.0;
+                *n = [0.0; 3];
+            }
+        }
         let luminance = indirect
             .iter()
             .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
             .collect();
-        Ok(MaskInput {
-            width: src.width,
-            height: src.height,
-            luminance,
-            depth,
-            normal,
-            matid,
-            indirect,
-        })
+        Ok((
+            MaskInput {
+                width: src.width,
+                height: src.height,
+                luminance,
+                depth,
+                normal,
+                matid,
+                indirect,
+            },
+            warnings,
+        ))
     }
 }
 
@@ -64,16 +99,17 @@ mod tests {
     use crate::exrio::ExrImage;
     use crate::layout::{Names, Preset};
 
-    fn source(img: &ExrImage) -> Result<Source> {
+    fn source(img: &ExrImage) -> Source {
         Source::new(
             Preset::Mixmc,
             Names::default(),
             vec![("omc.exr".into(), img.clone())],
         )
+        .unwrap()
     }
 
     #[test]
-    fn nan_is_refused_with_the_quantity() {
+    fn non_finite_values_are_repaired_with_a_warning() {
         let mut img = ExrImage::new(2, 1);
         for n in [
             "indirect.R",
@@ -84,19 +120,22 @@ mod tests {
             "N.Z",
             "matid",
         ] {
-            img.add(n, vec![0.0, 0.0]);
+            img.add(n, vec![0.5, 0.5]);
         }
         img.add("Z", vec![1.0, f32::INFINITY]);
-        assert!(MaskInput::from_source(&source(&img).unwrap()).is_ok());
-        img.add("indirect.G", vec![0.0, f32::NAN]);
-        let e = MaskInput::from_source(&source(&img).unwrap()).unwrap_err();
+        let (clean, w) = MaskInput::from_source(&source(&img)).unwrap();
+        assert!(w.is_empty() && clean.matid == [0.5, 0.5]);
+        img.add("indirect.G", vec![0.5, f32::NAN]);
+        img.add("N.Y", vec![f32::INFINITY, 0.5]);
+        let (input, w) = MaskInput::from_source(&source(&img)).unwrap();
+        assert_eq!(w.len(), 2, "{w:?}");
         assert!(
-            e.message.contains("indirect") && e.message.contains("non-finite"),
-            "{e}"
+            w[0].contains("indirect.G") && w[0].contains("1 non-finite"),
+            "{w:?}"
         );
-        img.add("matid", vec![0.0, f32::NAN]);
-        img.add("indirect.G", vec![0.0, 0.0]);
-        let e = MaskInput::from_source(&source(&img).unwrap()).unwrap_err();
-        assert!(e.message.contains("material id"), "{e}");
+        assert_eq!(input.indirect[1], [0.5, 0.0, 0.5]);
+        assert_eq!(input.luminance[1], 0.2126 * 0.5 + 0.0722 * 0.5);
+        assert_eq!((input.matid[0], input.normal[0]), (-1.0, [0.0; 3]));
+        assert_eq!((input.matid[1], input.normal[1]), (0.5, [0.5; 3]));
     }
 }

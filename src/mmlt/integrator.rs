@@ -101,6 +101,25 @@ impl Mask {
 /// BPT passes per pixel that estimate the normalisation b by default.
 pub const DEFAULT_B_SPP: u64 = 32;
 
+/// Refuse a render whose buffers cannot fit in memory, before anything is rendered: per pixel,
+/// one f64 RGB sum per rendered depth (24 B each) plus the OMC-like rest (the round's splats, the
+/// image and its writer's copy; `omc::BYTES_PER_PIXEL`), and one f32 weight per bootstrap sample.
+pub fn check_memory(width: usize, height: usize, s: &MmltSettings) -> Result<()> {
+    let pixels = (width * height) as u64;
+    let depths = u64::from(s.max_depth.saturating_sub(s.min_depth) + 1);
+    let per_pixel = 24 * depths + crate::omc::BYTES_PER_PIXEL;
+    let bytes = pixels
+        .saturating_mul(per_pixel)
+        .saturating_add(depths.saturating_mul(s.bootstrap as u64).saturating_mul(4));
+    crate::memory::check(
+        &format!(
+            "a {width}x{height} MMLT render of {depths} depths with {} bootstrap samples each",
+            s.bootstrap
+        ),
+        bytes,
+    )
+}
+
 /// Everything that decides an MMLT render's values.
 #[derive(Clone, Debug)]
 pub struct MmltSettings {

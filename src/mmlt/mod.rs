@@ -5,4 +5,6 @@
 pub mod integrator;
 pub mod sampler;
 
-pub use integrator::{DEFAULT_B_SPP, Mask, MmltResult, MmltSettings, mcmc_image, render};
+pub use integrator::{
+    DEFAULT_B_SPP, Mask, MmltResult, MmltSettings, check_memory, mcmc_image, render,
+};

@@ -50,6 +50,8 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Offset that lifts ray origins off surfaces, relative to the scene's size.
     pub eps: f32,
+    /// What the scene builds despite (dropped triangles, no lights), for the tools to print.
+    pub warnings: Vec<String>,
 }
 
 /// A ray's nearest surface.
@@ -70,8 +72,13 @@ impl Scene {
     pub fn load(path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::in_file(path, format!("cannot read scene: {e}")))?;
-        let desc = parse(&text).map_err(|e| e.with_file(path))?;
-        Scene::build(&desc, path, &text).map_err(|e| e.with_file(path))
+        Scene::from_text(&text, path).map_err(|e| e.with_file(path))
+    }
+
+    /// Parse and build a scene from its JSON text; `path` names it and anchors relative OBJ
+    /// paths (the file itself is not read). Errors name the line, column and key, not the file.
+    pub fn from_text(text: &str, path: &Path) -> Result<Scene> {
+        Scene::build(&parse(text)?, path, text)
     }
 
     fn build(desc: &SceneDesc, path: &Path, text: &str) -> Result<Scene> {
@@ -146,13 +153,16 @@ impl Scene {
     ) -> Scene {
         let mut tri_verts = Vec::new();
         let mut tri_info = Vec::new();
+        let mut warnings = Vec::new();
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for m in &meshes {
+        for (k, m) in meshes.iter().enumerate() {
+            let mut dropped = 0;
             for i in 0..m.indices.len() {
                 let t = m.triangle(i);
                 let c = (t[1] - t[0]).cross(t[2] - t[0]);
                 let len = c.length();
                 if !(len > 0.0 && len.is_finite()) {
+                    dropped += 1;
                     continue;
                 }
                 for p in t {
@@ -166,11 +176,21 @@ impl Scene {
                     material: m.material,
                 });
             }
+            if dropped > 0 {
+                warnings.push(format!(
+                    "objects[{k}]: {dropped} of {} triangles have no area or a non-finite \
+                     vertex and were dropped",
+                    m.indices.len()
+                ));
+            }
         }
         let lights = Lights::new(tri_info.len(), |i| {
             let e = materials[tri_info[i].material as usize].emission;
             (e.max_element() > 0.0).then_some((tri_info[i].area, e))
         });
+        if lights.is_empty() {
+            warnings.push("the scene has no lights; the image is black".into());
+        }
         let bvh = Bvh::new(&tri_verts);
         let extent = if tri_verts.is_empty() {
             1.0
@@ -190,6 +210,14 @@ impl Scene {
             bvh,
             bounds: (lo, hi),
             eps: 1e-4 * extent,
+            warnings,
+        }
+    }
+
+    /// Print the scene's warnings as `TOOL: FILE: warning: …` on stderr.
+    pub fn print_warnings(&self, tool: &str) {
+        for w in &self.warnings {
+            eprintln!("{tool}: {}: warning: {w}", self.path.display());
         }
     }
 

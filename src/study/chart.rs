@@ -203,9 +203,14 @@ pub fn write_crops(show: &Showcase, omc: &str, path: &Path) -> Result<(usize, us
     let scale = (192 / win).max(1);
     let panel = win * scale;
     let (gap, label_h) = (6usize, 22usize);
-    let panels: Vec<(&str, &[[f32; 3]])> = std::iter::once(("reference", show.reference.as_slice()))
-        .chain(show.images.iter().map(|(m, img)| (m.as_str(), img.as_slice())))
-        .collect();
+    let panels: Vec<(&str, &[[f32; 3]])> =
+        std::iter::once(("reference", show.reference.as_slice()))
+            .chain(
+                show.images
+                    .iter()
+                    .map(|(m, img)| (m.as_str(), img.as_slice())),
+            )
+            .collect();
     let out_w = panels.len() * panel + (panels.len() + 1) * gap;
     let out_h = panel + label_h + 2 * gap;
     let mut buf = vec![255u8; out_w * out_h * 3];

@@ -288,9 +288,8 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
         .iter()
         .map(|l| methods_for(&l.name, &plan.methods))
         .collect::<Result<_>>()?;
-    let total: usize = method_lists.iter().map(Vec::len).sum::<usize>()
-        * plan.budgets.len()
-        * plan.seeds as usize;
+    let total: usize =
+        method_lists.iter().map(Vec::len).sum::<usize>() * plan.budgets.len() * plan.seeds as usize;
     let progress = Progress::new(total as u64, "study", "runs", quiet);
     let largest = plan.budgets.iter().copied().fold(0.0, f64::max);
     let mut results = Results {

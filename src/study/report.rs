@@ -271,11 +271,21 @@ mod tests {
             showcases: vec![],
             partial: false,
         });
-        assert!(md.contains("| cornell-torus | 12.00 (10.00–14.00) (ibpt) | 8.00 | 6.00 (6.00–6.00) | 0.50 |"), "{md}");
+        assert!(
+            md.contains(
+                "| cornell-torus | 12.00 (10.00–14.00) (ibpt) | 8.00 | 6.00 (6.00–6.00) | 0.50 |"
+            ),
+            "{md}"
+        );
         assert!(md.contains("| 15.4 | 7.28 | 12.5 | 0.81 |"), "{md}");
         assert!(md.contains("**6.00 (6.00–6.00)**"), "{md}");
         let c = csv(&records);
         assert_eq!(c.lines().count(), 6);
-        assert!(c.lines().nth(1).unwrap().starts_with("cornell-torus,ibpt,ibpt,10,1,"));
+        assert!(
+            c.lines()
+                .nth(1)
+                .unwrap()
+                .starts_with("cornell-torus,ibpt,ibpt,10,1,")
+        );
     }
 }

@@ -20,8 +20,10 @@ pub fn bin(name: &str) -> PathBuf {
         "mixmc-diff" => env!("CARGO_BIN_EXE_mixmc-diff"),
         "mixmc-mmlt" => env!("CARGO_BIN_EXE_mixmc-mmlt"),
         "mixmc-mix" => env!("CARGO_BIN_EXE_mixmc-mix"),
+        "mixmc-study" => env!("CARGO_BIN_EXE_mixmc-study"),
         "mixmc-mask" => env!("CARGO_BIN_EXE_mixmc-mask"),
         "mixmc-composite" => env!("CARGO_BIN_EXE_mixmc-composite"),
+        "mixmc-merge" => env!("CARGO_BIN_EXE_mixmc-merge"),
         other => panic!("unknown binary {other}"),
     };
     PathBuf::from(exe)

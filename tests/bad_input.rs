@@ -1,0 +1,342 @@
+//! Every tool on the bad-input corpus of `fixtures/bad/` (EXRs written by
+//! `tools/make_bad_fixtures.py`): one line `TOOL: FILE: problem`, exit code 2, no panic and no
+//! output file; or, where going on is right, a warning and a correct result.
+
+mod util;
+
+use mixmc::exrio::ExrImage;
+use std::path::Path;
+use std::process::{Command, Output};
+use util::{TempDir, bin, fixture};
+
+/// A corpus file's path (leaked: a handful of short strings, so argument lists stay `&str`).
+fn bad(name: &str) -> &'static str {
+    Box::leak(fixture(&format!("bad/{name}")).into_boxed_str())
+}
+
+fn tool(name: &str, args: &[&str], env: &[(&str, &str)]) -> Output {
+    Command::new(bin(name))
+        .args(args)
+        .envs(env.iter().copied())
+        .output()
+        .expect("run binary")
+}
+
+/// The one-line error contract; `file` is the file the message must name first.
+fn expect_error(name: &str, args: &[&str], env: &[(&str, &str)], file: &str, needle: &str) {
+    let tmp = TempDir::new(&format!("bad-{name}-{}", Path::new(file).display()).replace('/', "_"));
+    let out_path = tmp.join("out.exr");
+    let mut full: Vec<&str> = args.to_vec();
+    if name != "mixmc-diff" && name != "mixmc-scene" {
+        full.extend(["-o", out_path.to_str().unwrap()]);
+    }
+    let out = tool(name, &full, env);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let what = format!("{name} {full:?}: {stderr}");
+    assert_eq!(out.status.code(), Some(2), "{what}");
+    assert_eq!(stderr.lines().count(), 1, "{what}");
+    assert!(
+        stderr.starts_with(&format!("{name}: {file}: ")),
+        "must name {file}: {what}"
+    );
+    assert!(stderr.contains(needle), "expected `{needle}`: {what}");
+    assert!(!stderr.contains("panicked"), "{what}");
+    assert_eq!(
+        std::fs::read_dir(tmp.path()).unwrap().count(),
+        0,
+        "no output and no temporary file: {what}"
+    );
+}
+
+const THREADS: [&str; 2] = ["--threads", "1"];
+
+#[test]
+fn broken_exrs_fail_in_every_tool_that_reads_exrs() {
+    let cases = [
+        ("truncated.exr", "not a readable EXR"),
+        ("corrupt-offsets.exr", "not a readable EXR"),
+        ("not-an-exr.exr", "file identifier missing"),
+        ("empty.exr", "not a readable EXR"),
+        ("terabytes.exr", "asks for 3000000000000 samples"),
+    ];
+    let good = bad("aov-8x8.exr");
+    let mask = bad("mask-8x8.exr");
+    let scene = bad("scene-8x8.json");
+    for (name, needle) in cases {
+        let f = bad(name);
+        expect_error("mixmc-mask", &[f, "--threads", "1"], &[], f, needle);
+        let composite = |omc: &str, mask: &str, mcmc: &str| {
+            expect_error(
+                "mixmc-composite",
+                &["--omc", omc, "--mask", mask, "--mcmc", mcmc],
+                &[],
+                f,
+                needle,
+            )
+        };
+        composite(f, mask, good);
+        composite(good, f, good);
+        composite(good, mask, f);
+        expect_error("mixmc-diff", &[f, good], &[], f, needle);
+        expect_error("mixmc-diff", &[good, f], &[], f, needle);
+        expect_error("mixmc-merge", &[good, f], &[], f, needle);
+        let mmlt = [scene, "--mask", f, "--spp", "1", "--bootstrap", "10"];
+        expect_error(
+            "mixmc-mmlt",
+            &[&mmlt[..], &THREADS].concat(),
+            &[],
+            f,
+            needle,
+        );
+    }
+}
+
+#[test]
+fn wrong_channels_types_and_sizes_are_named() {
+    let mask_tool = |name: &str, needle: &str| {
+        let f = bad(name);
+        expect_error("mixmc-mask", &[f, "--threads", "1"], &[], f, needle);
+    };
+    mask_tool("missing-indirect.exr", "missing channel `indirect.R`");
+    // The error lists what the file has, so a wrongly cased name is easy to spot.
+    mask_tool("misnamed-channels.exr", "Indirect.R");
+    mask_tool("u32-indirect.exr", "`indirect.R` holds 32-bit integers");
+
+    let (good, small) = (bad("aov-8x8.exr"), bad("aov-4x4.exr"));
+    let (mask, mask4) = (bad("mask-8x8.exr"), bad("mask-4x4.exr"));
+    let composite = |omc: &str, mask: &str, mcmc: &str, file: &str, needle: &str| {
+        let args = ["--omc", omc, "--mask", mask, "--mcmc", mcmc];
+        expect_error("mixmc-composite", &args, &[], file, needle)
+    };
+    composite(good, mask4, good, mask4, "is 4×4 but the OMC image");
+    composite(good, mask, small, small, "is 4×4 but the OMC image");
+    let f = bad("mask-nan.exr");
+    composite(good, f, good, f, "alpha NaN at pixel (5, 0)");
+    let f = bad("mask-u32.exr");
+    composite(good, f, good, f, "`alpha` holds 32-bit integers");
+    // Non-finite light cannot be blended or compared.
+    let f = bad("nan-indirect.exr");
+    composite(
+        f,
+        mask,
+        good,
+        f,
+        "3 pixels of the indirect light are not finite",
+    );
+    let f = bad("nan-beauty.exr");
+    composite(good, mask, f, f, "2 pixels of R,G,B are not finite");
+    expect_error("mixmc-diff", &[f, good], &[], f, "not finite");
+    expect_error("mixmc-diff", &[good, f], &[], f, "not finite");
+    expect_error("mixmc-diff", &[good, small], &[], good, "reference");
+
+    let scene = bad("scene-8x8.json");
+    let mmlt = |mask: &str, needle: &str| {
+        let args = [scene, "--mask", mask, "--spp", "1", "--bootstrap", "10"];
+        expect_error(
+            "mixmc-mmlt",
+            &[&args[..], &THREADS].concat(),
+            &[],
+            mask,
+            needle,
+        )
+    };
+    mmlt(mask4, "mask is 4x4 but the film is 8x8");
+    mmlt(bad("mask-out-of-range.exr"), "alpha 1.5 at pixel (5, 0)");
+    mmlt(bad("mask-u32.exr"), "holds 32-bit integers");
+}
+
+#[test]
+fn bad_scenes_and_meshes_fail_in_every_tool_that_reads_scenes() {
+    let cases = [
+        ("malformed.json", "EOF while parsing"),
+        ("deep.json", "key camera[0][0]"),
+        ("not-utf8.json", "not contain valid UTF-8"),
+        (
+            "huge-film.json",
+            "resolution 1000000 must be between 1 and 16384",
+        ),
+        (
+            "bad-index.json",
+            "bad-index.obj: line 4: face index 9 out of range",
+        ),
+        (
+            "nan-vertex.json",
+            "nan-vertex.obj: line 2: coordinate `nan` is not finite",
+        ),
+        ("missing-obj.json", "no-such-file.obj: cannot read OBJ"),
+    ];
+    for (name, needle) in cases {
+        let f = bad(name);
+        let omc = [f, "--spp", "1", "-q"];
+        expect_error("mixmc-omc", &[&omc[..], &THREADS].concat(), &[], f, needle);
+        let mmlt = [f, "--spp", "1", "--bootstrap", "10", "-q"];
+        expect_error(
+            "mixmc-mmlt",
+            &[&mmlt[..], &THREADS].concat(),
+            &[],
+            f,
+            needle,
+        );
+        expect_error("mixmc-scene", &["info", f], &[], f, needle);
+    }
+}
+
+#[test]
+fn requests_beyond_memory_are_refused_up_front() {
+    // The cap makes the outcome the same on every machine; the machine's own MemAvailable
+    // lowers it further, never raises it.
+    let cap = [("MIXMC_MAX_MEMORY", "8000000000")];
+    let f = bad("film-16k.json");
+    let needle = "a 16384x16384 render needs about 53.7 GB but only 8.0 GB";
+    expect_error("mixmc-omc", &[f, "-q"], &cap, f, needle);
+    let f = bad("film-16k-deep.json");
+    let needle = "MMLT render of 1023 depths with 100000 bootstrap samples each needs about 6.6 TB";
+    expect_error("mixmc-mmlt", &[f, "-q"], &cap, f, needle);
+    // EXR inputs: the header's size is checked before the pixels are read.
+    let f = bad("aov-8x8.exr");
+    let tiny = [("MIXMC_MAX_MEMORY", "1000")];
+    let needle = "reading this EXR needs about 7.2 KB but only 1.0 KB";
+    expect_error("mixmc-mask", &[f], &tiny, f, needle);
+    expect_error("mixmc-diff", &[f, f], &tiny, f, needle);
+}
+
+/// Run a tool that must succeed and warn; returns its stderr.
+fn expect_warning(name: &str, args: &[&str], needle: &str) -> String {
+    let out = tool(name, args, &[]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{name} {args:?}: {stderr}");
+    assert!(
+        stderr.contains("warning") && stderr.contains(needle),
+        "{stderr}"
+    );
+    stderr
+}
+
+fn beauty(path: &Path) -> Vec<f32> {
+    let img = ExrImage::read(path).unwrap();
+    let rgb = img.require_rgb(["R", "G", "B"]).unwrap();
+    rgb.into_iter().flatten().collect()
+}
+
+#[test]
+fn scenes_worth_rendering_warn_and_give_correct_images() {
+    let tmp = TempDir::new("bad-scenes-go-on");
+    let render = |scene: &str, out: &str, needle: Option<&str>| {
+        let out = tmp.join(out);
+        let args = [scene, "-o", out.to_str().unwrap(), "--spp", "4", "-q"];
+        let args = [&args[..], &THREADS].concat();
+        match needle {
+            Some(n) => {
+                expect_warning("mixmc-omc", &args, n);
+            }
+            None => {
+                util::run_ok("mixmc-omc", &args);
+            }
+        }
+        beauty(&out)
+    };
+    let no_light = render(
+        bad("no-light.json"),
+        "dark.exr",
+        Some("the scene has no lights"),
+    );
+    assert!(no_light.iter().all(|&v| v == 0.0));
+    let inside = render(
+        bad("camera-inside.json"),
+        "inside.exr",
+        Some("camera inside an object"),
+    );
+    assert!(inside.iter().all(|&v| v == 0.0));
+    // Degenerate triangles are dropped: the image is the scene without them, bit for bit.
+    let degenerate = render(
+        bad("degenerate.json"),
+        "degenerate.exr",
+        Some("objects[8]: 2 of 2 triangles have no area"),
+    );
+    let without = render(
+        &fixture("scenes/cornell-box-tiny.json"),
+        "without.exr",
+        None,
+    );
+    assert!(degenerate.iter().sum::<f32>() > 0.0);
+    assert_eq!(degenerate, without);
+}
+
+#[test]
+fn merge_refuses_renders_of_different_sizes() {
+    let tmp = TempDir::new("bad-merge-sizes");
+    let (a, b) = (tmp.join("a.exr"), tmp.join("b.exr"));
+    for (scene, out, seed) in [
+        (bad("scene-8x8.json"), &a, "1"),
+        (bad("camera-inside.json"), &b, "2"),
+    ] {
+        let args = [
+            scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--spp",
+            "1",
+            "--seed",
+            seed,
+            "-q",
+        ];
+        tool("mixmc-omc", &[&args[..], &THREADS].concat(), &[]);
+    }
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    expect_error(
+        "mixmc-merge",
+        &[a, b],
+        &[],
+        b,
+        "resolution 64×64 differs from 8×8",
+    );
+}
+
+#[test]
+fn the_mask_goes_on_past_non_finite_light_and_integer_ids() {
+    let tmp = TempDir::new("bad-mask-go-on");
+    let mask = |input: &Path, out: &str| {
+        let out = tmp.join(out);
+        let args = [
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--fov",
+            "40",
+        ];
+        let out_text = tool("mixmc-mask", &[&args[..], &THREADS].concat(), &[]);
+        let stderr = String::from_utf8_lossy(&out_text.stderr).into_owned();
+        assert!(out_text.status.success(), "{stderr}");
+        (
+            ExrImage::read(&out).unwrap().get("alpha").unwrap().to_vec(),
+            stderr,
+        )
+    };
+    // NaN and ∞ in the indirect light count as no light: the same mask as the repaired file.
+    let nan = Path::new(&bad("nan-indirect.exr")).to_path_buf();
+    let (alpha, stderr) = mask(&nan, "nan-mask.exr");
+    assert!(
+        stderr.contains("warning: channel `indirect.G` has 2 non-finite values")
+            && stderr.contains("`indirect.B` has 1 non-finite"),
+        "{stderr}"
+    );
+    let mut img = ExrImage::read(&nan).unwrap();
+    for c in ["indirect.G", "indirect.B"] {
+        let fixed: Vec<f32> = img
+            .get(c)
+            .unwrap()
+            .iter()
+            .map(|v| if v.is_finite() { *v } else { 0.0 })
+            .collect();
+        img.add(c, fixed);
+    }
+    let repaired = tmp.join("repaired.exr");
+    img.write(&repaired, false).unwrap();
+    let (expected, stderr) = mask(&repaired, "repaired-mask.exr");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert_eq!(alpha, expected);
+    // Material ids stored as u32 (other renderers' object ids) give the float file's mask.
+    let (ids, _) = mask(Path::new(&bad("u32-matid.exr")), "u32-mask.exr");
+    let (floats, _) = mask(Path::new(&bad("aov-8x8.exr")), "float-mask.exr");
+    assert_eq!(ids, floats);
+}

@@ -1,5 +1,5 @@
-//! `mixmc-study --quick`: every (scene, budget, seed, method) is rendered and scored, the scores
-//! are those `mixmc-diff` computes, and the tables, charts and crops are written.
+//! `mixmc-study --quick`: every (scene, budget, seed, method) is rendered and scored within its
+//! budget, and the tables, charts and crops are written.
 
 mod util;
 

@@ -176,6 +176,9 @@ fn load(plan: &Plan, name: &str) -> Result<Loaded> {
     })
 }
 
+/// One render's image, its record (scores not yet filled in) and, for a mix, its mask's α.
+type Rendered = (Vec<[f32; 3]>, Record, Option<Vec<f32>>);
+
 /// One render: its image and the record without scores.
 fn render_one(
     l: &Loaded,
@@ -183,7 +186,7 @@ fn render_one(
     budget: f64,
     seed: u64,
     plan: &Plan,
-) -> Result<(Vec<[f32; 3]>, Record, Option<Vec<f32>>)> {
+) -> Result<Rendered> {
     let scene = &l.scene;
     let mut rec = Record {
         scene: l.name.clone(),

@@ -22,12 +22,6 @@ fn quick_study_writes_scored_runs_tables_charts_and_crops() {
         "mixmc-study",
         &[
             "--quick",
-            "--scenes",
-            "cornell-torus-tiny,clean-tiny",
-            "--budgets",
-            "0.5,1",
-            "--seeds",
-            "2",
             "--scene-dir",
             &scene_dir,
             "--reference-dir",
@@ -43,8 +37,8 @@ fn quick_study_writes_scored_runs_tables_charts_and_crops() {
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    // 2 scenes × 2 budgets × 2 seeds × 7 methods (omc = ibpt on both scenes).
-    assert_eq!(rows.len(), 2 * 2 * 2 * 7, "{csv}");
+    // 6 tiny scenes × 2 budgets × 1 seed × 7 methods (omc is ibpt or lt, once each).
+    assert_eq!(rows.len(), 6 * 2 * 7, "{csv}");
     for r in &rows {
         let (mse, relmse, flip): (f64, f64, f64) = (
             r[10].parse().unwrap(),
@@ -58,12 +52,21 @@ fn quick_study_writes_scored_runs_tables_charts_and_crops() {
         // A run may overrun by its last pass or round, not by whole budgets.
         assert!(seconds < 2.0 * budget + 2.0, "{r:?}");
     }
-    for m in ["ibpt", "pt", "bpt", "mmlt", "kelemen", "mix", "mix-auto"] {
+    for m in [
+        "ibpt", "lt", "pt", "bpt", "mmlt", "kelemen", "mix", "mix-auto",
+    ] {
         assert!(rows.iter().any(|r| r[1] == m), "no {m} rows");
     }
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("| cornell-torus-tiny |") && report.contains("| 15.4 | 7.28 | 12.5 |"));
-    for scene in ["cornell-torus-tiny", "clean-tiny"] {
+    for scene in [
+        "cornell-torus-tiny",
+        "cornell-water-tiny",
+        "room-tiny",
+        "bathroom-tiny",
+        "clean-tiny",
+        "stress-tiny",
+    ] {
         for m in ["mse", "flip"] {
             assert_eq!(
                 png_size(&out.join(format!("charts/{scene}-{m}.png"))),

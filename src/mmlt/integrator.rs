@@ -492,6 +492,7 @@ fn normalisation(
                         seed,
                         passes,
                         sample,
+                        (w, h),
                         &mut paths,
                         visit,
                     );

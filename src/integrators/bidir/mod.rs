@@ -61,7 +61,7 @@ pub struct Paths {
 /// One bidirectional sample of pixel (x, y) in pass `pass`: a camera and a light sub-path joined
 /// by every strategy of `strategies` up to `max_depth`. `visit(depth, splat, value)` receives each
 /// MIS-weighted value, with `splat` the film pixel for light-tracing strategies (t = 1) and
-/// `None` for the pixel's own. Shared by the OMC passes and MMLT's estimate of its normalisation,
+/// `None` for the pixel's own, indexed in a film of `size` (w, h). Shared by the OMC passes and MMLT's estimate of its normalisation,
 /// which must see the same strategies and weights.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_sample(
@@ -71,10 +71,10 @@ pub fn trace_sample(
     seed: u64,
     pass: u64,
     (x, y): (usize, usize),
+    (w, h): (usize, usize),
     paths: &mut Paths,
     mut visit: impl FnMut(u32, Option<usize>, Rgb),
 ) {
-    let (w, h) = (scene.width() as usize, scene.height() as usize);
     let max_cam = max_depth as usize + 2;
     let max_light = max_depth as usize + 1;
     let Paths { cam, light } = paths;
@@ -125,8 +125,8 @@ pub fn render_pass(
     pass: u64,
     film: &mut Film,
 ) {
-    let w = film.width;
-    let rows: Vec<(Vec<[Rgb; 2]>, Vec<Splat>)> = (0..film.height)
+    let (w, h) = (film.width, film.height);
+    let rows: Vec<(Vec<[Rgb; 2]>, Vec<Splat>)> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut paths = Paths::default();
@@ -148,6 +148,7 @@ pub fn render_pass(
                     seed,
                     pass,
                     (x, y),
+                    (w, h),
                     &mut paths,
                     visit,
                 );

@@ -88,6 +88,25 @@ impl RenderArgs {
     }
 }
 
+/// Exit status of a render: 130 (as a shell reports Ctrl-C) when it was interrupted and wrote a
+/// partial result, 0 otherwise.
+pub fn render_exit(partial: bool) -> ExitCode {
+    if partial {
+        ExitCode::from(130)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// The end of a render's summary line: what an interrupted render wrote.
+pub fn partial_note(partial: bool) -> &'static str {
+    if partial {
+        " (interrupted: partial image)"
+    } else {
+        ""
+    }
+}
+
 /// `--max-depth`, checked, or the scene's own.
 pub fn max_depth(asked: Option<u32>, scene_default: u32) -> Result<u32> {
     match asked {

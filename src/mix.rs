@@ -102,6 +102,8 @@ pub struct Mixed {
     pub phases: Phases,
     /// Interrupted by Ctrl-C or SIGTERM: the image holds what had been rendered.
     pub partial: bool,
+    /// What the mask repaired in the snapshot (non-finite values: a renderer bug to report).
+    pub warnings: Vec<String>,
 }
 
 /// The names the files get under `--keep DIR` (and in the headers that refer to each other).
@@ -145,15 +147,9 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let pass =
         |index: u64, film: &mut Film| s.omc.render_pass(scene, s.max_depth, s.seed, index, film);
     let label = format!("mix 1/3: {} (mask snapshot)", s.omc.name());
-    let empty = Rendered {
-        film: Film::new(w, h),
-        passes: 0,
-        seconds: 0.0,
-        partial: false,
-    };
     // The snapshot may take at most half the budget, whatever the split.
     let r = continue_passes(
-        empty,
+        Rendered::empty(w, h),
         Budget::Seconds(0.5 * s.seconds),
         s.mask_spp,
         &label,
@@ -169,7 +165,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         ..s.mask.clone()
     };
     let snapshot_name = dir.join(KEEP_NAMES[0]).display().to_string();
-    let (input, _) = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
+    let (input, warnings) = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
     let m = build(&input, &params);
     let mask_img = mask_image(
         &m,
@@ -268,6 +264,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         mcmc_share: share,
         phases,
         partial,
+        warnings,
     })
 }
 

@@ -24,6 +24,18 @@ pub struct Rendered {
     pub partial: bool,
 }
 
+impl Rendered {
+    /// A render of no passes yet, to be continued with [`continue_passes`].
+    pub fn empty(width: usize, height: usize) -> Rendered {
+        Rendered {
+            film: Film::new(width, height),
+            passes: 0,
+            seconds: 0.0,
+            partial: false,
+        }
+    }
+}
+
 /// Run `pass(index, film)` until the budget is spent or the user interrupts.
 pub fn run_passes(
     width: usize,
@@ -33,13 +45,14 @@ pub fn run_passes(
     quiet: bool,
     pass: impl FnMut(u64, &mut Film),
 ) -> Rendered {
-    let start = Rendered {
-        film: Film::new(width, height),
-        passes: 0,
-        seconds: 0.0,
-        partial: false,
-    };
-    continue_passes(start, budget, u64::MAX, label, quiet, pass)
+    continue_passes(
+        Rendered::empty(width, height),
+        budget,
+        u64::MAX,
+        label,
+        quiet,
+        pass,
+    )
 }
 
 /// Go on with a render: passes `prev.passes, prev.passes + 1, …` are added to its film until this

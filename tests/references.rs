@@ -6,19 +6,12 @@
 mod util;
 
 use mixmc::exrio::ExrImage;
+use mixmc::study::SCENES;
 use serde_json::Value;
 
-/// The tiny twins of issue 4's scenes; each is checked against Mitsuba at `SPP`. (The committed
-/// `cornell-box` and `caustic` references are checked by the script only, docs/references.md:
-/// tests/methods.rs already compares BPT with Mitsuba on those scenes from its own renders.)
-const SCENES: [&str; 6] = [
-    "cornell-torus",
-    "cornell-water",
-    "room",
-    "bathroom",
-    "clean",
-    "stress",
-];
+// The tiny twins of the study's scenes are each checked against Mitsuba at `SPP`. (The committed
+// `cornell-box` and `caustic` references are checked by the script only, docs/references.md:
+// tests/methods.rs already compares BPT with Mitsuba on those scenes from its own renders.)
 const SPP: &str = "1024";
 
 #[test]

@@ -2,7 +2,7 @@
 //! snapshot, MMLT weighted by the mask, and eq. (2), in one process at a time budget.
 
 use clap::Parser;
-use mixmc::cli::{init_threads, main_with, max_depth};
+use mixmc::cli::{init_threads, main_with, max_depth, partial_note, render_exit};
 use mixmc::error::Error;
 use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
@@ -116,6 +116,12 @@ fn main() -> ExitCode {
         mixmc::signal::install();
         let dir = args.keep.clone().unwrap_or_default();
         let m = mix(&scene, &settings, &dir)?;
+        for w in &m.warnings {
+            eprintln!(
+                "{TOOL}: {}: warning: the OMC snapshot: {w}",
+                args.scene.display()
+            );
+        }
         if let Some(dir) = &args.keep {
             let files = [
                 Some(&m.snapshot),
@@ -152,16 +158,8 @@ fn main() -> ExitCode {
             m.phases.mmlt,
             m.mcmc_share,
             m.phases.total,
-            if m.partial {
-                " (interrupted: partial image)"
-            } else {
-                ""
-            }
+            partial_note(m.partial)
         );
-        Ok(if m.partial {
-            ExitCode::from(130)
-        } else {
-            ExitCode::SUCCESS
-        })
+        Ok(render_exit(m.partial))
     })
 }

@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use mixmc::Error;
-use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
+use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note, render_exit};
 use mixmc::film::write_beauty_png;
 use mixmc::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, check_memory, mcmc_image, render};
 use mixmc::render::Budget;
@@ -141,16 +141,8 @@ fn main() -> ExitCode {
             r.chains,
             r.acceptance,
             r.b,
-            if r.partial {
-                " (interrupted: partial image)"
-            } else {
-                ""
-            }
+            partial_note(r.partial)
         );
-        Ok(if r.partial {
-            ExitCode::from(130)
-        } else {
-            ExitCode::SUCCESS
-        })
+        Ok(render_exit(r.partial))
     })
 }

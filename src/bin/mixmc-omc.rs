@@ -2,7 +2,7 @@
 //! G-buffer (DESIGN §3).
 
 use clap::Parser;
-use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with};
+use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note, render_exit};
 use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
 use mixmc::omc::{OmcSettings, render};
@@ -74,16 +74,8 @@ fn main() -> ExitCode {
             "{}: {} spp in {secs:.2} s{}",
             args.output.display(),
             spp,
-            if partial {
-                " (interrupted: partial image)"
-            } else {
-                ""
-            }
+            partial_note(partial)
         );
-        Ok(if partial {
-            ExitCode::from(130)
-        } else {
-            ExitCode::SUCCESS
-        })
+        Ok(render_exit(partial))
     })
 }

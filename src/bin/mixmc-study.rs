@@ -2,24 +2,15 @@
 //! paper's scenes against converged references — Table 1, charts, crops, spread over seeds.
 
 use clap::Parser;
-use mixmc::cli::{init_threads, main_with};
+use mixmc::cli::{init_threads, main_with, render_exit};
 use mixmc::error::{Error, Result};
 use mixmc::metrics::Metric;
 use mixmc::output::write_atomic;
-use mixmc::study::{Plan, Results, chart, paper_omc, report, run};
+use mixmc::study::{Plan, Results, SCENES, chart, paper_omc, report, run};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 const TOOL: &str = "mixmc-study";
-
-const SCENES: [&str; 6] = [
-    "cornell-torus",
-    "cornell-water",
-    "room",
-    "bathroom",
-    "clean",
-    "stress",
-];
 
 #[derive(Parser)]
 #[command(
@@ -213,10 +204,6 @@ fn main() -> ExitCode {
             res.showcases.len(),
             if res.partial { " (interrupted)" } else { "" }
         );
-        Ok(if res.partial {
-            ExitCode::from(130)
-        } else {
-            ExitCode::SUCCESS
-        })
+        Ok(render_exit(res.partial))
     })
 }

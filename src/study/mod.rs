@@ -91,6 +91,17 @@ pub fn methods_for(scene: &str, names: &[String]) -> Result<Vec<StudyMethod>> {
         })
 }
 
+/// The study's scenes: the paper's four (its Figure 3), then `clean` (no hard transport) and
+/// `stress` (mostly hard); each has a `-tiny` twin and references under fixtures/references.
+pub const SCENES: [&str; 6] = [
+    "cornell-torus",
+    "cornell-water",
+    "room",
+    "bathroom",
+    "clean",
+    "stress",
+];
+
 /// What the study renders.
 #[derive(Clone, Debug)]
 pub struct Plan {
@@ -133,8 +144,6 @@ pub struct Showcase {
     pub reference: Vec<[f32; 3]>,
     /// (method name, image), in the plan's method order.
     pub images: Vec<(String, Vec<[f32; 3]>)>,
-    /// The mix's mask α, when the mix ran.
-    pub alpha: Option<Vec<f32>>,
 }
 
 /// Everything the study measured.
@@ -176,9 +185,6 @@ fn load(plan: &Plan, name: &str) -> Result<Loaded> {
     })
 }
 
-/// One render's image, its record (scores not yet filled in) and, for a mix, its mask's α.
-type Rendered = (Vec<[f32; 3]>, Record, Option<Vec<f32>>);
-
 /// One render: its image and the record without scores.
 fn render_one(
     l: &Loaded,
@@ -186,7 +192,7 @@ fn render_one(
     budget: f64,
     seed: u64,
     plan: &Plan,
-) -> Result<Rendered> {
+) -> Result<(Vec<[f32; 3]>, Record)> {
     let scene = &l.scene;
     let mut rec = Record {
         scene: l.name.clone(),
@@ -205,7 +211,6 @@ fn render_one(
             flip: f64::NAN,
         },
     };
-    let mut alpha = None;
     let rgb = match method {
         StudyMethod::Omc(m) => {
             let img = render_omc(
@@ -273,11 +278,10 @@ fn render_one(
                 .unwrap_or(0.0);
             rec.complex_fraction = m.complex_fraction;
             rec.mcmc_share = m.mcmc_share;
-            alpha = m.mask.get("alpha").map(<[f32]>::to_vec);
             m.image.require_rgb(["R", "G", "B"])?
         }
     };
-    Ok((rgb, rec, alpha))
+    Ok((rgb, rec))
 }
 
 /// Render every (scene, budget, seed, method) of the plan and score it against the reference.
@@ -308,7 +312,6 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
             height: h,
             reference: l.reference.clone(),
             images: Vec::new(),
-            alpha: None,
         };
         for &budget in &plan.budgets {
             for seed in 1..=plan.seeds {
@@ -317,7 +320,7 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
                         results.partial = true;
                         break 'scenes;
                     }
-                    let (rgb, mut rec, alpha) = render_one(l, method, budget, seed, plan)?;
+                    let (rgb, mut rec) = render_one(l, method, budget, seed, plan)?;
                     if signal::interrupted() {
                         // The run was cut short: its image is not a budget's image.
                         results.partial = true;
@@ -326,9 +329,6 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
                     rec.scores = scores(&rgb, &l.reference, w, h);
                     if budget == largest && seed == 1 {
                         show.images.push((rec.method.clone(), rgb));
-                        if alpha.is_some() && show.alpha.is_none() {
-                            show.alpha = alpha;
-                        }
                     }
                     results.records.push(rec);
                     progress.set(results.records.len() as u64);

@@ -1,14 +1,15 @@
-//! Ray queries over triangles, through `obvhs`' binary BVH (PLOC build with reinsertion and leaf
-//! collapsing, ordered stack traversal). Chosen by measurement over obvhs' CWBVH and the
-//! hand-written binned-SAH BVH this module used to hold: see BENCHMARKS.md, "Ray queries (BVH)",
-//! and `benches/bvh`.
+//! Ray queries over triangles: a 4-wide BVH whose nodes hold their four children's boxes, and
+//! whose leaves hold triangles four at a time, so one SIMD pass (glam's `Vec4`, SSE on x86-64)
+//! tests four boxes or four triangles. The tree is obvhs' binary BVH (PLOC build with
+//! reinsertion and leaf collapsing) with every other level folded away. Chosen by measurement
+//! over obvhs' own BVH2 and CWBVH traversals and a hand-written binned-SAH BVH2: see
+//! BENCHMARKS.md, "Ray queries (BVH)", and `benches/bvh`.
 
 use crate::math::Vec3;
-use glam::Vec3A;
+use glam::Vec4;
 use obvhs::BvhBuildParams;
-use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::ray::RayHit;
+use obvhs::bvh2::{Bvh2, node::Bvh2Node};
 use obvhs::triangle::Triangle;
 use std::time::Duration;
 
@@ -28,16 +29,250 @@ pub struct Hit {
     pub b2: f32,
 }
 
-pub struct Bvh {
-    bvh: Bvh2,
-    /// The triangles in the BVH's leaf order, so traversal reads them without an indirection;
-    /// `bvh.primitive_indices[i]` is the caller's index of `tris[i]`.
-    tris: Vec<Triangle>,
+/// A child reference: an inner node's index, or (with `LEAF` set) a run of triangle blocks,
+/// its first block in the low `COUNT_SHIFT` bits and its length − 1 above them.
+const LEAF: u32 = 1 << 31;
+const EMPTY: u32 = u32::MAX;
+const COUNT_SHIFT: u32 = 25;
+const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+/// Blocks a leaf can name: obvhs' leaves hold at most 255 triangles, 64 blocks.
+const MAX_LEAF_BLOCKS: usize = 1 << (31 - COUNT_SHIFT);
+/// The most triangles the child encoding can address: every block holds at least one, so
+/// this many never need more blocks than a leaf reference can name (33.5 M).
+pub const MAX_TRIANGLES: usize = FIRST_MASK as usize;
+
+/// Four children's boxes, one lane each; unused lanes have `child` = `EMPTY`.
+#[derive(Clone, Copy)]
+struct Node {
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    child: [u32; 4],
 }
 
+/// Four triangles as vertex and two edges, one lane each; padding lanes are all zero, which
+/// gives a zero determinant and NaN barycentrics, so they never hit.
+#[derive(Clone, Copy)]
+struct Block {
+    v0: [Vec4; 3],
+    e1: [Vec4; 3],
+    e2: [Vec4; 3],
+}
+
+pub struct Bvh {
+    nodes: Vec<Node>,
+    blocks: Vec<Block>,
+    /// The caller's triangle index of each block lane.
+    prims: Vec<u32>,
+    root: u32,
+    /// Deepest traversal stack the tree can need.
+    stack_len: usize,
+}
+
+/// A ray splatted across four lanes, with the reciprocal direction for the slab test.
+struct Query {
+    o: [Vec4; 3],
+    d: [Vec4; 3],
+    inv: [Vec4; 3],
+}
+
+impl Query {
+    fn new(ray: &Ray) -> Query {
+        // A zero component gets a huge finite reciprocal: the slab product then stays free of
+        // 0·∞ = NaN, and a ray on a slab's plane still counts as inside it.
+        let inv = |d: f32| {
+            if d.abs() > 1e-30 { 1.0 / d } else { 1e30 }
+        };
+        let (o, d) = (ray.origin, ray.dir);
+        Query {
+            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            d: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
+            inv: [
+                Vec4::splat(inv(d.x)),
+                Vec4::splat(inv(d.y)),
+                Vec4::splat(inv(d.z)),
+            ],
+        }
+    }
+}
+
+/// pbrt's γ₃-style widening of the slab exit, so rounding in the slab products cannot lose a
+/// box that is flat (a wall) or that the ray grazes.
+const SLAB_WIDEN: f32 = 1.0 + 4.0 * f32::EPSILON;
+
+impl Node {
+    const EMPTY: Node = Node {
+        lo: [Vec4::ZERO; 3],
+        hi: [Vec4::ZERO; 3],
+        child: [EMPTY; 4],
+    };
+
+    /// Entry distances of the four boxes and a bit per lane whose box the ray meets in
+    /// [0, t_max].
+    #[inline(always)]
+    fn intersect(&self, q: &Query, t_max: f32) -> (u32, Vec4) {
+        let mut near = Vec4::ZERO;
+        let mut far = Vec4::splat(t_max);
+        for a in 0..3 {
+            let t0 = (self.lo[a] - q.o[a]) * q.inv[a];
+            let t1 = (self.hi[a] - q.o[a]) * q.inv[a];
+            near = near.max(t0.min(t1));
+            far = far.min(t0.max(t1));
+        }
+        (near.cmple(far * SLAB_WIDEN).bitmask(), near)
+    }
+}
+
+impl Block {
+    const EMPTY: Block = Block {
+        v0: [Vec4::ZERO; 3],
+        e1: [Vec4::ZERO; 3],
+        e2: [Vec4::ZERO; 3],
+    };
+
+    /// Möller–Trumbore on four triangles: the lane of the nearest hit with t in (0, t_max),
+    /// with its t and barycentrics of v1 and v2.
+    #[inline(always)]
+    fn intersect(&self, q: &Query, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        let [dx, dy, dz] = q.d;
+        let [e1x, e1y, e1z] = self.e1;
+        let [e2x, e2y, e2z] = self.e2;
+        let (px, py, pz) = (
+            dy * e2z - dz * e2y,
+            dz * e2x - dx * e2z,
+            dx * e2y - dy * e2x,
+        );
+        let inv_det = Vec4::ONE / (e1x * px + e1y * py + e1z * pz);
+        let (sx, sy, sz) = (
+            q.o[0] - self.v0[0],
+            q.o[1] - self.v0[1],
+            q.o[2] - self.v0[2],
+        );
+        let u = (sx * px + sy * py + sz * pz) * inv_det;
+        let (qx, qy, qz) = (
+            sy * e1z - sz * e1y,
+            sz * e1x - sx * e1z,
+            sx * e1y - sy * e1x,
+        );
+        let v = (dx * qx + dy * qy + dz * qz) * inv_det;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
+        let ok = u.cmpge(Vec4::ZERO)
+            & v.cmpge(Vec4::ZERO)
+            & (u + v).cmple(Vec4::ONE)
+            & t.cmpgt(Vec4::ZERO)
+            & t.cmplt(Vec4::splat(t_max));
+        let mut mask = ok.bitmask();
+        let mut best: Option<(usize, f32)> = None;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if best.is_none_or(|(_, bt)| t[lane] < bt) {
+                best = Some((lane, t[lane]));
+            }
+        }
+        best.map(|(lane, t)| (lane, t, u[lane], v[lane]))
+    }
+
+    /// Whether any lane hits with t in (0, t_max).
+    #[inline(always)]
+    fn hits(&self, q: &Query, t_max: f32) -> bool {
+        self.intersect(q, t_max).is_some()
+    }
+}
+
+/// Folds obvhs' binary tree into the 4-wide one.
+struct Builder<'a> {
+    bvh2: &'a Bvh2,
+    tris: &'a [[Vec3; 3]],
+    nodes: Vec<Node>,
+    blocks: Vec<Block>,
+    prims: Vec<u32>,
+}
+
+impl Builder<'_> {
+    /// The child reference for binary node `i` and the depth of the 4-wide subtree under it.
+    fn child(&mut self, i: usize) -> (u32, usize) {
+        let n = &self.bvh2.nodes[i];
+        if n.is_leaf() {
+            return (self.leaf(n), 0);
+        }
+        // Open the largest inner child until there are four: the surface area heuristic's
+        // choice of which boxes are worth testing together.
+        let mut kids = vec![n.first_index as usize, n.first_index as usize + 1];
+        while kids.len() < 4 {
+            let area = |k: usize| self.bvh2.nodes[k].aabb().half_area();
+            let Some(j) = (0..kids.len())
+                .filter(|&j| !self.bvh2.nodes[kids[j]].is_leaf())
+                .max_by(|&a, &b| area(kids[a]).total_cmp(&area(kids[b])))
+            else {
+                break;
+            };
+            let first = self.bvh2.nodes[kids[j]].first_index as usize;
+            kids[j] = first;
+            kids.push(first + 1);
+        }
+        let slot = self.nodes.len();
+        self.nodes.push(Node::EMPTY);
+        let mut node = Node::EMPTY;
+        let mut depth = 0;
+        for (lane, &k) in kids.iter().enumerate() {
+            let aabb = self.bvh2.nodes[k].aabb();
+            for a in 0..3 {
+                node.lo[a][lane] = aabb.min[a];
+                node.hi[a][lane] = aabb.max[a];
+            }
+            let (code, d) = self.child(k);
+            node.child[lane] = code;
+            depth = depth.max(d);
+        }
+        self.nodes[slot] = node;
+        (slot as u32, depth + 1)
+    }
+
+    fn leaf(&mut self, n: &Bvh2Node) -> u32 {
+        let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+        let first = self.blocks.len();
+        for chunk in self.bvh2.primitive_indices[range].chunks(4) {
+            let mut block = Block::EMPTY;
+            for (lane, &p) in chunk.iter().enumerate() {
+                let [a, b, c] = self.tris[p as usize];
+                let (e1, e2) = (b - a, c - a);
+                for ax in 0..3 {
+                    block.v0[ax][lane] = a[ax];
+                    block.e1[ax][lane] = e1[ax];
+                    block.e2[ax][lane] = e2[ax];
+                }
+            }
+            self.blocks.push(block);
+            let mut lanes = [u32::MAX; 4];
+            lanes[..chunk.len()].copy_from_slice(chunk);
+            self.prims.extend_from_slice(&lanes);
+        }
+        let count = self.blocks.len() - first;
+        assert!(
+            (1..=MAX_LEAF_BLOCKS).contains(&count) && self.blocks.len() <= FIRST_MASK as usize,
+            "obvhs leaves hold 1 to 255 triangles and scenes at most {MAX_TRIANGLES}"
+        );
+        LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32
+    }
+}
+
+/// A traversal stack on the call stack when the tree is shallow enough (always, for sane
+/// trees), so queries do not allocate.
+const SMALL_STACK: usize = 48;
+
 impl Bvh {
-    /// Build over triangles given as vertex triples; hit `prim` indexes this slice.
+    /// Build over triangles given as vertex triples; hit `prim` indexes this slice. At most
+    /// `MAX_TRIANGLES` (the scene loader refuses more).
     pub fn new(triangles: &[[Vec3; 3]]) -> Bvh {
+        if triangles.is_empty() {
+            return Bvh {
+                nodes: Vec::new(),
+                blocks: Vec::new(),
+                prims: Vec::new(),
+                root: EMPTY,
+                stack_len: 1,
+            };
+        }
         let input: Vec<Triangle> = triangles
             .iter()
             .map(|[a, b, c]| Triangle {
@@ -46,73 +281,140 @@ impl Bvh {
                 v2: (*c).into(),
             })
             .collect();
-        // obvhs' middle preset, the one the benchmarks measured: it builds 20k triangles in a
-        // few ms (BENCHMARKS.md), nothing next to a render, so build speed is not worth trading
-        // tree quality for.
-        let bvh = build_bvh2_from_tris(
+        // obvhs' middle preset: it builds 20k triangles in a few ms (BENCHMARKS.md), nothing
+        // next to a render, so build speed is not worth trading tree quality for.
+        let bvh2 = build_bvh2_from_tris(
             &input,
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        let tris = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| input[i as usize])
-            .collect();
-        Bvh { bvh, tris }
+        let mut b = Builder {
+            bvh2: &bvh2,
+            tris: triangles,
+            nodes: Vec::new(),
+            blocks: Vec::new(),
+            prims: Vec::new(),
+        };
+        let (root, depth) = b.child(0);
+        Bvh {
+            nodes: b.nodes,
+            blocks: b.blocks,
+            prims: b.prims,
+            root,
+            // Each inner node pops one entry and pushes at most four.
+            stack_len: 3 * depth + 1,
+        }
+    }
+
+    /// Run `f` with a traversal stack big enough for this tree.
+    #[inline(always)]
+    fn with_stack<R>(&self, f: impl FnOnce(&mut [(u32, f32)]) -> R) -> R {
+        if self.stack_len <= SMALL_STACK {
+            f(&mut [(0, 0.0); SMALL_STACK])
+        } else {
+            f(&mut vec![(0, 0.0); self.stack_len])
+        }
+    }
+
+    fn leaf_blocks(code: u32) -> std::ops::Range<usize> {
+        let first = (code & FIRST_MASK) as usize;
+        let count = ((code & !LEAF) >> COUNT_SHIFT) as usize + 1;
+        first..first + count
     }
 
     /// Nearest intersection with t in (0, t_max).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let mut hit = RayHit::none();
-        let found = self
-            .bvh
-            .ray_traverse(open_interval(ray, t_max), &mut hit, |r, i| {
-                self.tris[i].intersect(r)
-            });
-        found.then(|| {
-            let i = hit.primitive_id as usize;
-            let (b1, b2) = barycentrics(&self.tris[i], ray);
-            Hit {
-                t: hit.t,
-                prim: self.bvh.primitive_indices[i],
+        if self.root == EMPTY {
+            return None;
+        }
+        let q = Query::new(ray);
+        self.with_stack(|stack| {
+            let mut best_t = t_max;
+            let mut best: Option<(usize, usize, f32, f32)> = None;
+            stack[0] = (self.root, 0.0);
+            let mut top = 1;
+            while top > 0 {
+                top -= 1;
+                let (code, t_enter) = stack[top];
+                if t_enter >= best_t {
+                    continue;
+                }
+                if code & LEAF != 0 {
+                    for b in Self::leaf_blocks(code) {
+                        if let Some((lane, t, u, v)) = self.blocks[b].intersect(&q, best_t) {
+                            best_t = t;
+                            best = Some((b, lane, u, v));
+                        }
+                    }
+                    continue;
+                }
+                let node = &self.nodes[code as usize];
+                let (mut mask, near) = node.intersect(&q, best_t);
+                // Push the boxes met, farthest first, so the nearest is traversed next and
+                // its hits cull the others.
+                let mut order = [(0u32, 0f32); 4];
+                let mut n = 0;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if node.child[lane] == EMPTY {
+                        continue;
+                    }
+                    let entry = (node.child[lane], near[lane]);
+                    let mut j = n;
+                    while j > 0 && order[j - 1].1 < entry.1 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = entry;
+                    n += 1;
+                }
+                for &entry in &order[..n] {
+                    stack[top] = entry;
+                    top += 1;
+                }
+            }
+            best.map(|(b, lane, b1, b2)| Hit {
+                t: best_t,
+                prim: self.prims[4 * b + lane],
                 b1,
                 b2,
-            }
+            })
         })
     }
 
     /// Whether anything blocks the ray in (0, t_max).
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        !self
-            .bvh
-            .ray_traverse_miss(open_interval(ray, t_max), |r, i| self.tris[i].intersect(r))
+        if self.root == EMPTY {
+            return false;
+        }
+        let q = Query::new(ray);
+        self.with_stack(|stack| {
+            stack[0] = (self.root, 0.0);
+            let mut top = 1;
+            while top > 0 {
+                top -= 1;
+                let code = stack[top].0;
+                if code & LEAF != 0 {
+                    if Self::leaf_blocks(code).any(|b| self.blocks[b].hits(&q, t_max)) {
+                        return true;
+                    }
+                    continue;
+                }
+                let node = &self.nodes[code as usize];
+                let (mut mask, _) = node.intersect(&q, t_max);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if node.child[lane] != EMPTY {
+                        stack[top] = (node.child[lane], 0.0);
+                        top += 1;
+                    }
+                }
+            }
+            false
+        })
     }
-}
-
-/// obvhs accepts hits with t in the closed [tmin, tmax]; this module's contract is (0, t_max),
-/// which shadow rays rely on to not hit the light they end on.
-#[inline]
-fn open_interval(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(
-        Vec3A::from(ray.origin),
-        Vec3A::from(ray.dir),
-        0f32.next_up(),
-        t_max.next_down(),
-    )
-}
-
-/// Barycentrics (of v1 and v2) where the ray meets the triangle's plane, by Möller–Trumbore.
-/// obvhs' traversal reports only t, so they are computed once, for the nearest hit.
-#[inline]
-pub fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
-    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
-    let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
-    let p = d.cross(e2);
-    let inv_det = 1.0 / e1.dot(p);
-    let s = o - tri.v0;
-    let q = s.cross(e1);
-    (s.dot(p) * inv_det, d.dot(q) * inv_det)
 }
 
 #[cfg(test)]

@@ -115,7 +115,7 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         for key in first.attributes.keys().chain(img.attributes.keys()) {
             if key.starts_with("mixmc.") && !PER_PASS_ATTRS.contains(&key.as_str()) {
                 let (a, b) = (first.attributes.get(key), img.attributes.get(key));
-                if a != b {
+                if a != b && !(key == "mixmc.scene" && same_file(a, b)) {
                     let show = |v: Option<&Attr>| match v {
                         Some(Attr::Text(t)) => format!("`{t}`"),
                         Some(Attr::Float(f)) => f.to_string(),
@@ -228,4 +228,20 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
         .any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));
     out.set_text("mixmc.partial", if partial { "true" } else { "false" });
     Ok(out)
+}
+
+/// Two renders name their scene as they were given it, relative to their own working
+/// directory or absolute; the same scene file under two spellings is still one scene. Resolved
+/// against this process's working directory, which is where relative paths are looked up when
+/// merging references from the repository root.
+fn same_file(a: Option<&Attr>, b: Option<&Attr>) -> bool {
+    match (a, b) {
+        (Some(Attr::Text(a)), Some(Attr::Text(b))) => {
+            match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+                (Ok(a), Ok(b)) => a == b,
+                _ => false,
+            }
+        }
+        _ => false,
+    }
 }

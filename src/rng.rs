@@ -58,6 +58,24 @@ impl Rng {
     }
 }
 
+impl Rng {
+    /// An independent generator keyed by this one's key and `index`: one hash, where `new` takes
+    /// three, for callers that need many keyed generators per (seed, stream, index).
+    #[inline]
+    pub fn fork(&self, index: u64) -> Rng {
+        Rng {
+            key: mix64(self.key ^ index.wrapping_mul(0xd6e8_feb8_6659_fd93)),
+            dim: 0,
+        }
+    }
+
+    /// Pass over `n` numbers without computing them: what follows is as if they were drawn.
+    #[inline]
+    pub fn skip(&mut self, n: u64) {
+        self.dim += n;
+    }
+}
+
 impl Sampler for Rng {
     #[inline]
     fn next_1d(&mut self) -> f32 {

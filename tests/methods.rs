@@ -135,37 +135,44 @@ fn bidirectional_methods_beat_path_tracing_in_the_caustic() {
     let reference = render(dir.path(), &scene, "bpt", &["--spp", "1536"], 99, "2");
     // The shadow of the glass sphere: lit only through glass (L S S D E paths).
     let crop = "20,38,26,10";
-    let mut mean = std::collections::BTreeMap::new();
+    // The median over seeds, not the mean: relMSE in a caustic crop is heavy-tailed. At 48 spp
+    // (seeds 11–16) BPT's crop error was 0.009–0.016 in four seeds and 0.64 and 1.43 in the
+    // other two (one firefly each; the same for LT, whose light paths BPT shares), so a mean of
+    // three seeds measures whether a firefly happened, not which method converges faster.
+    let mut median = std::collections::BTreeMap::new();
     for method in ["pt", "lt", "ibpt", "bpt"] {
-        let mut sum = 0.0;
-        for seed in [11, 12, 13] {
-            let img = render(dir.path(), &scene, method, &["--time", "1.5"], seed, "2");
-            let json = run_ok(
-                "mixmc-diff",
-                &[
-                    img.to_str().unwrap(),
-                    reference.to_str().unwrap(),
-                    "--metric",
-                    "relmse",
-                    "--crop",
-                    crop,
-                    "--json",
-                    "--fail",
-                    "1e30",
-                ],
-            );
-            sum += relmse(&json);
-        }
-        mean.insert(method, sum / 3.0);
+        let mut errors: Vec<f64> = (11..=15)
+            .map(|seed| {
+                let img = render(dir.path(), &scene, method, &["--time", "1.5"], seed, "2");
+                let json = run_ok(
+                    "mixmc-diff",
+                    &[
+                        img.to_str().unwrap(),
+                        reference.to_str().unwrap(),
+                        "--metric",
+                        "relmse",
+                        "--crop",
+                        crop,
+                        "--json",
+                        "--fail",
+                        "1e30",
+                    ],
+                );
+                relmse(&json)
+            })
+            .collect();
+        errors.sort_by(f64::total_cmp);
+        median.insert(method, errors[errors.len() / 2]);
     }
-    eprintln!("equal-time relMSE in the caustic (mean of 3 seeds): {mean:?}");
-    // Measured: LT 0.10–0.16×, IBPT 0.03–0.22×, BPT 0.03–0.13× PT's error. IBPT and BPT got
-    // there once densities into specular vertices were kept per projected solid angle
-    // (path.rs, `to_area`); with pbrt's convention they were only 0.5–0.9×.
+    eprintln!("equal-time relMSE in the caustic (median of 5 seeds): {median:?}");
+    // Measured (mean of 3 seeds, before the median): LT 0.10–0.16×, IBPT 0.03–0.22×, BPT
+    // 0.03–0.13× PT's error. IBPT and BPT got there once densities into specular vertices were
+    // kept per projected solid angle (path.rs, `to_area`); with pbrt's convention they were only
+    // 0.5–0.9×.
     for method in ["lt", "ibpt", "bpt"] {
         assert!(
-            mean[method] < 0.5 * mean["pt"],
-            "{method} is not clearly better than PT: {mean:?}"
+            median[method] < 0.5 * median["pt"],
+            "{method} is not clearly better than PT: {median:?}"
         );
     }
 }

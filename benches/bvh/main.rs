@@ -1,6 +1,7 @@
 //! Ray-query throughput of the BVH backends the renderer could use (BENCHMARKS.md, "Ray queries
-//! (BVH)"): `mixmc::accel::Bvh` (obvhs' BVH2, the one chosen), obvhs' CWBVH, and the
-//! hand-written binned-SAH BVH that `accel` held before (`handwritten.rs`).
+//! (BVH)"): `mixmc::accel::Bvh` (obvhs' BVH2 folded into a 4-wide tree with 4-triangle leaves,
+//! the one chosen), obvhs' CWBVH and BVH2 with obvhs' own traversals (the BVH2 one is what
+//! `accel` used before), and the hand-written binned-SAH BVH2 it held first (`handwritten.rs`).
 //!
 //! The rays imitate the path tracer's: camera rays, two diffuse bounces from their hit points
 //! (incoherent), and one shadow segment per hit towards an area light. Every backend traces the
@@ -16,13 +17,14 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3A};
 use handwritten::Handwritten;
-use mixmc::accel::{Bvh, Hit, Ray, barycentrics};
+use mixmc::accel::{Bvh, Hit, Ray};
 use mixmc::camera::Camera;
 use mixmc::math::{Frame, Vec3, cosine_hemisphere};
 use mixmc::rng::{Rng, Sampler};
 use mixmc::scene::Scene;
 use mixmc::scene::mesh::Mesh;
 use obvhs::BvhBuildParams;
+use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
@@ -102,9 +104,9 @@ impl Backend for Handwritten {
     }
 }
 
-/// The renderer's: obvhs' BVH2 behind `accel`'s API.
+/// The renderer's: obvhs' BVH2 folded into `accel`'s 4-wide tree.
 impl Backend for Bvh {
-    const NAME: &'static str = "obvhs-bvh2";
+    const NAME: &'static str = "accel-bvh4";
     fn build(tris: &[[Vec3; 3]]) -> Self {
         Bvh::new(tris)
     }
@@ -154,28 +156,89 @@ fn obvhs_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
     )
 }
 
-struct ObvhsCw {
-    bvh: CwBvh,
+/// The two obvhs trees, traversed by obvhs itself, with its own triangle test.
+trait ObvhsTree: Sized {
+    const NAME: &'static str;
+    fn build(tris: &[Triangle]) -> Self;
+    fn order(&self) -> &[u32];
+    fn closest(
+        &self,
+        r: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
+    ) -> bool;
+    fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool;
+}
+
+impl ObvhsTree for CwBvh {
+    const NAME: &'static str = "obvhs-cwbvh";
+    fn build(tris: &[Triangle]) -> Self {
+        build_cwbvh_from_tris(
+            tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        )
+    }
+    fn order(&self) -> &[u32] {
+        &self.primitive_indices
+    }
+    fn closest(
+        &self,
+        r: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
+    ) -> bool {
+        self.ray_traverse(r, hit, f)
+    }
+    fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool {
+        self.ray_traverse_miss(r, f)
+    }
+}
+
+/// The tree `accel` traversed itself before it folded it into a 4-wide one.
+impl ObvhsTree for Bvh2 {
+    const NAME: &'static str = "obvhs-bvh2";
+    fn build(tris: &[Triangle]) -> Self {
+        build_bvh2_from_tris(
+            tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        )
+    }
+    fn order(&self) -> &[u32] {
+        &self.primitive_indices
+    }
+    fn closest(
+        &self,
+        r: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
+    ) -> bool {
+        self.ray_traverse(r, hit, f)
+    }
+    fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool {
+        self.ray_traverse_miss(r, f)
+    }
+}
+
+struct Obvhs<T> {
+    bvh: T,
     tris: Vec<Triangle>,
     ids: Vec<u32>,
 }
 
-impl Backend for ObvhsCw {
-    const NAME: &'static str = "obvhs-cwbvh";
+impl<T: ObvhsTree> Backend for Obvhs<T> {
+    const NAME: &'static str = T::NAME;
     fn build(tris: &[[Vec3; 3]]) -> Self {
-        let bvh = build_cwbvh_from_tris(
-            &obvhs_tris(tris),
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
-        let (tris, ids) = reorder(tris, &bvh.primitive_indices);
-        ObvhsCw { bvh, tris, ids }
+        let bvh = T::build(&obvhs_tris(tris));
+        let (tris, ids) = reorder(tris, bvh.order());
+        Obvhs { bvh, tris, ids }
     }
     fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let r = obvhs_ray(ray, t_max);
         let mut hit = RayHit::none();
         self.bvh
-            .ray_traverse(r, &mut hit, |r, i| self.tris[i].intersect(r))
+            .closest(r, &mut hit, |r, i| self.tris[i].intersect(r))
             .then(|| {
                 let i = hit.primitive_id as usize;
                 let (b1, b2) = barycentrics(&self.tris[i], ray);
@@ -190,8 +253,20 @@ impl Backend for ObvhsCw {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         !self
             .bvh
-            .ray_traverse_miss(obvhs_ray(ray, t_max), |r, i| self.tris[i].intersect(r))
+            .miss(obvhs_ray(ray, t_max), |r, i| self.tris[i].intersect(r))
     }
+}
+
+/// Barycentrics (of v1 and v2) where the ray meets the triangle's plane, by Möller–Trumbore:
+/// obvhs' traversal reports only t, so they are computed once, for the nearest hit.
+fn barycentrics(tri: &Triangle, ray: &Ray) -> (f32, f32) {
+    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+    let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
+    let p = d.cross(e2);
+    let inv_det = 1.0 / e1.dot(p);
+    let s = o - tri.v0;
+    let q = s.cross(e1);
+    (s.dot(p) * inv_det, d.dot(q) * inv_det)
 }
 
 /// A scene's triangles and the rays a few diffuse paths through it would trace.
@@ -411,6 +486,9 @@ fn bench_build(c: &mut Criterion<ThreadCpu>, w: &Workload) {
     g.bench_function(<Handwritten as Backend>::NAME, |b| {
         b.iter(|| Handwritten::new(black_box(&w.tris)))
     });
+    g.bench_function(<Bvh as Backend>::NAME, |b| {
+        b.iter(|| Bvh::new(black_box(&w.tris)))
+    });
     let presets = [
         ("fast", BvhBuildParams::fast_build()),
         ("medium", BvhBuildParams::medium_build()),
@@ -443,7 +521,8 @@ fn rays(c: &mut Criterion<ThreadCpu>) {
         );
         let reference = Bvh::new(&w.tris);
         bench_backend::<Handwritten>(c, &w, &reference);
-        bench_backend::<ObvhsCw>(c, &w, &reference);
+        bench_backend::<Obvhs<CwBvh>>(c, &w, &reference);
+        bench_backend::<Obvhs<Bvh2>>(c, &w, &reference);
         bench_backend::<Bvh>(c, &w, &reference);
         bench_build(c, &w);
     }

@@ -206,12 +206,12 @@ fn evaluate(
         y: 0.0,
         pixel: pixel_of(fx, fy),
     };
-    camera_subpath(scene, fx, fy, sampler, t, &mut scratch.cam);
+    camera_subpath(scene, fx, fy, sampler, t, false, &mut scratch.cam);
     if scratch.cam.len() != t {
         return out;
     }
     sampler.start_stream(LIGHT_STREAM);
-    light_subpath(scene, sampler, s, &mut scratch.light);
+    light_subpath(scene, sampler, s, false, &mut scratch.light);
     if scratch.light.len() != s {
         return out;
     }

@@ -12,7 +12,7 @@
 //! since. Every random number is keyed by (seed, chain, mutation, dimension), so a value does not
 //! depend on the order dimensions are read in, and a chain does not depend on threads.
 
-use crate::rng::{Rng, Sampler, mix64};
+use crate::rng::{Rng, Sampler};
 
 /// Stream of the strategy choice, film position and camera sub-path.
 pub const CAMERA_STREAM: usize = 0;
@@ -57,8 +57,6 @@ impl PrimarySample {
 #[derive(Clone, Debug)]
 pub struct MltSampler {
     seed: u64,
-    /// Key of the initial state: a chain started from bootstrap sample `init` reproduces it.
-    init: u64,
     /// Key of the chain's mutations, distinct per chain even when two start from one sample.
     chain: u64,
     sigma: f32,
@@ -73,6 +71,8 @@ pub struct MltSampler {
     accept_u: f32,
     stream: usize,
     sample_index: usize,
+    /// Keyed by (seed, chain or init, mutation): each dimension's numbers fork from it.
+    mutation_rng: Rng,
 }
 
 impl MltSampler {
@@ -80,7 +80,6 @@ impl MltSampler {
     pub fn new(seed: u64, init: u64, chain: u64, sigma: f32, large_step_probability: f32) -> Self {
         MltSampler {
             seed,
-            init,
             chain,
             sigma,
             large_step_probability,
@@ -92,6 +91,9 @@ impl MltSampler {
             accept_u: 0.0,
             stream: CAMERA_STREAM,
             sample_index: 0,
+            // The initial state is keyed by `init`: a chain started from bootstrap sample
+            // `init` reproduces it.
+            mutation_rng: Rng::new(seed ^ INIT_KEY, init, 0),
         }
     }
 
@@ -103,6 +105,7 @@ impl MltSampler {
         let mut r = Rng::new(self.seed ^ STEP_KEY, self.chain, self.mutation);
         self.large_step = r.next_1d() < self.large_step_probability;
         self.accept_u = r.next_1d();
+        self.mutation_rng = Rng::new(self.seed ^ DIM_KEY, self.chain, self.mutation);
     }
 
     /// Whether the current proposal is a large step (an independent sample).
@@ -145,21 +148,11 @@ impl MltSampler {
         &self.x
     }
 
-    /// Random numbers of dimension `index` for the current mutation: independent of the order in
-    /// which dimensions are read.
-    fn dim_rng(&self, index: usize) -> Rng {
-        let (key, stream) = if self.mutation == 0 {
-            (INIT_KEY, self.init)
-        } else {
-            (DIM_KEY, self.chain)
-        };
-        Rng::new(self.seed ^ mix64(key ^ index as u64), stream, self.mutation)
-    }
-
     /// Bring dimension `index` up to date for the current proposal.
     fn ensure_ready(&mut self, index: usize) {
-        let mut r = self.dim_rng(index);
-        let catch_up = r.next_1d();
+        // Random numbers of this dimension for this mutation, independent of the order in
+        // which dimensions are read: a catch-up uniform, then the step's one or two numbers.
+        let mut r = self.mutation_rng.fork(index as u64);
         if index >= self.x.len() {
             // A dimension never read before: in an eager chain it would hold a uniform number
             // (from the first state or a later accepted large step), so it starts as one.
@@ -183,9 +176,12 @@ impl MltSampler {
         // Saved before the catch-up, so a rejection leaves the state exactly as it was; a stale
         // value is caught up again, with an equally uniform number, when next read.
         xi.save();
-        if xi.last_modified == UNREAD || xi.last_modified < last_large {
-            xi.value = catch_up;
+        if !large && (xi.last_modified == UNREAD || xi.last_modified < last_large) {
+            xi.value = r.next_1d();
             xi.last_modified = last_large;
+        } else {
+            // A large step replaces the value anyway; an up-to-date one needs no catch-up.
+            r.skip(1);
         }
         if large {
             xi.value = r.next_1d();

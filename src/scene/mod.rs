@@ -131,6 +131,13 @@ impl Scene {
             m.material = mat as u32;
             meshes.push(m);
         }
+        let triangles: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        if triangles > crate::accel::MAX_TRIANGLES {
+            return Err(Error::new(format!(
+                "{triangles} triangles: more than the {} the ray-query tree can address",
+                crate::accel::MAX_TRIANGLES
+            )));
+        }
         Ok(Scene::from_meshes(
             desc_name(path),
             path.to_path_buf(),

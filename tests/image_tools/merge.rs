@@ -129,6 +129,17 @@ fn passes_of_different_renders_are_refused() {
         }),
         &["mixmc.scene"],
     );
+    // The same scene file under another spelling is the same scene (the test runs from the
+    // repository root, where the relative path resolves); the header keeps the first's.
+    let relative = variant("relative.exr", 2.0, &|i| {
+        i.set_text("mixmc.scene", "fixtures/scenes/caustic.json")
+    });
+    run_code(
+        MERGE,
+        &[path_str(&a), path_str(&relative), "-o", path_str(&out)],
+        0,
+    );
+    std::fs::remove_file(&out).unwrap();
     refused(
         &variant("method.exr", 2.0, &|i| i.set_text("mixmc.method", "lt")),
         &["mixmc.method"],

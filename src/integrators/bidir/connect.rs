@@ -287,8 +287,16 @@ mod tests {
             let mut rng = Rng::new(3, i, 0);
             let (mut cam, mut light) = (Vec::new(), Vec::new());
             let u = rng.next_2d();
-            camera_subpath(&scene, u.x * 128.0, u.y * 128.0, &mut rng, 6, &mut cam);
-            light_subpath(&scene, &mut rng, 5, &mut light);
+            camera_subpath(
+                &scene,
+                u.x * 128.0,
+                u.y * 128.0,
+                &mut rng,
+                6,
+                false,
+                &mut cam,
+            );
+            light_subpath(&scene, &mut rng, 5, false, &mut light);
             for t in 2..=cam.len() {
                 for s in [0usize, 2, 3, 4, 5] {
                     if s > light.len()

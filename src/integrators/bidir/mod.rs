@@ -86,17 +86,17 @@ pub fn trace_sample(
     if strategies == Strategies::Lt {
         // Only paths through a specular first vertex need the camera side.
         let start = rng.clone();
-        camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), cam);
+        camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), true, cam);
         if cam.len() == 2 && cam[1].delta {
             rng = start;
-            camera_subpath(scene, fx, fy, &mut rng, max_cam, cam);
+            camera_subpath(scene, fx, fy, &mut rng, max_cam, true, cam);
         } else {
             cam.truncate(1);
         }
     } else {
-        camera_subpath(scene, fx, fy, &mut rng, max_cam, cam);
+        camera_subpath(scene, fx, fy, &mut rng, max_cam, true, cam);
     }
-    light_subpath(scene, &mut light_rng, max_light, light);
+    light_subpath(scene, &mut light_rng, max_light, true, light);
     for t in 1..=cam.len() {
         for s in 0..=light.len() {
             if s + t < 2 || s + t - 2 > max_depth as usize {

@@ -3,6 +3,7 @@
 //! (s, t) connection can be weighted against all other strategies (Veach's thesis, ch. 10).
 
 use crate::bsdf::Mode;
+use crate::integrators::RR_DEPTH;
 use crate::lights::LightSample;
 use crate::math::{INV_PI, Rgb, Vec3, cosine_hemisphere};
 use crate::rng::Sampler;
@@ -137,6 +138,9 @@ pub struct Start {
     pub beta: Rgb,
     pub pdf: f32,
     pub mode: Mode,
+    /// Russian roulette after `RR_DEPTH` surface vertices (OMC passes). MMLT walks without it:
+    /// its paths have a fixed length chosen by the chain.
+    pub roulette: bool,
 }
 
 /// Extend `path` (which holds its first vertex) by a random walk until it has `max_vertices`
@@ -153,7 +157,13 @@ pub fn random_walk(
         mut beta,
         mut pdf,
         mode,
+        roulette,
     } = start;
+    // Roulette compares the throughput with the walk's start (a light path starts at Le/pdf),
+    // and counts η² through refractions as the path tracer does, so it does not kill paths
+    // inside glass.
+    let beta_start = beta.max_element();
+    let mut eta_scale = 1.0f32;
     let mut o = {
         let v = path.last().expect("walk starts from a vertex");
         if v.on_surface() {
@@ -203,6 +213,17 @@ pub fn random_walk(
         if beta == Rgb::ZERO || !beta.is_finite() {
             break;
         }
+        eta_scale *= s.eta * s.eta;
+        // The MIS weights leave the survival probability out of the densities: any weights
+        // that sum to one over the strategies stay unbiased, and 1/q is in `beta`.
+        // `path` holds n − 1 surface vertices after its camera or light vertex.
+        if roulette && n > RR_DEPTH as usize {
+            let q = (beta.max_element() / beta_start * eta_scale).min(0.95);
+            if sampler.next_1d() >= q {
+                break;
+            }
+            beta /= q;
+        }
         pdf = pdf_fwd_sa;
         o = scene.offset(hit.p, hit.n, s.wi);
         d = s.wi;
@@ -217,6 +238,7 @@ pub fn camera_subpath(
     y: f32,
     sampler: &mut impl Sampler,
     max_vertices: usize,
+    roulette: bool,
     path: &mut Vec<Vertex>,
 ) {
     path.clear();
@@ -229,6 +251,7 @@ pub fn camera_subpath(
         beta: Rgb::ONE,
         pdf,
         mode: Mode::Radiance,
+        roulette,
     };
     random_walk(scene, start, sampler, max_vertices, path);
 }
@@ -239,6 +262,7 @@ pub fn light_subpath(
     scene: &Scene,
     sampler: &mut impl Sampler,
     max_vertices: usize,
+    roulette: bool,
     path: &mut Vec<Vertex>,
 ) {
     path.clear();
@@ -262,6 +286,7 @@ pub fn light_subpath(
         beta,
         pdf: local.z * INV_PI,
         mode: Mode::Importance,
+        roulette,
     };
     random_walk(scene, start, sampler, max_vertices, path);
 }

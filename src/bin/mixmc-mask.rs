@@ -64,6 +64,9 @@ struct Args {
     /// Spike gate (not with --paper): … and at least this times the image's mean indirect luminance.
     #[arg(long, default_value_t = 5.0)]
     min_level: f32,
+    /// Spike gate (not with --paper): … in a segment whose mean noise is at least this times its median noise.
+    #[arg(long, default_value_t = 1.75)]
+    tail: f32,
     #[command(flatten)]
     layout: LayoutArgs,
     /// Write one PNG per step into this directory.
@@ -110,8 +113,8 @@ impl Args {
             "--switch must be in (0, 1]",
         )?;
         check(
-            self.contrast >= 0.0 && self.min_level >= 0.0,
-            "--contrast and --min-level must not be negative",
+            self.contrast >= 0.0 && self.min_level >= 0.0 && self.tail >= 0.0,
+            "--contrast, --min-level and --tail must not be negative",
         )?;
         Ok(MaskParams {
             window: self.window,
@@ -125,6 +128,7 @@ impl Args {
             paper: self.paper,
             contrast: self.contrast,
             min_level: self.min_level,
+            tail: self.tail,
         })
     }
 }

@@ -4,7 +4,7 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
 use mixmc::error::{Error, Result};
-use mixmc::layout::{LayoutArgs, Source};
+use mixmc::layout::{GBufferArgs, Source};
 use mixmc::mask::{MaskInput, MaskParams, build, inspect, mask_image};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -46,7 +46,8 @@ struct Args {
     /// Neighbours join a segment only if their normals differ by less than this (|ΔN|).
     #[arg(long, default_value_t = 0.15)]
     normal_tol: f32,
-    /// … and their depths by less than this many projected pixel sizes.
+    /// … and their depths continue one surface within this many projected pixel sizes (a small
+    /// step, or a straight run of 1/depth along the row or column: slanted planes stay whole).
     #[arg(long, default_value_t = 2.0)]
     depth_tol: f32,
     /// Vertical field of view in degrees [default: the input's mixmc.fov_y header, else 40].
@@ -68,7 +69,7 @@ struct Args {
     #[arg(long, default_value_t = 1.75)]
     tail: f32,
     #[command(flatten)]
-    layout: LayoutArgs,
+    layout: GBufferArgs,
     /// Write one PNG per step into this directory.
     #[arg(long)]
     inspect: Option<PathBuf>,

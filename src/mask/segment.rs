@@ -55,9 +55,14 @@ pub struct Segments {
     pub count: usize,
 }
 
-/// Linearity flag bits: the pixel lies on a straight run of 1/z along x (its row) or y (column).
-const LINEAR_X: u8 = 1;
-const LINEAR_Y: u8 = 2;
+/// Per-pixel bits of the neighbour rule, computed once: background; the right (down) neighbour
+/// is the same surface (both not background, equal id, close normals); the pixel lies on a
+/// straight run of 1/z along x (y).
+const BACKGROUND: u8 = 1;
+const SAME_RIGHT: u8 = 2;
+const SAME_DOWN: u8 = 4;
+const LINEAR_X: u8 = 8;
+const LINEAR_Y: u8 = 16;
 
 impl GBuffer<'_> {
     #[inline(always)]
@@ -75,34 +80,16 @@ impl GBuffer<'_> {
         let dn2 = (na[0] - nb[0]).powi(2) + (na[1] - nb[1]).powi(2) + (na[2] - nb[2]).powi(2);
         dn2 < normal_tol * normal_tol
     }
-
-    /// Whether `i`'s neighbours `i − step` and `i + step` continue its surface on a straight
-    /// line of inverse depth (tolerance `slope_tol · q`, `slope_tol = depth_tol · pixel_angle`).
-    #[inline(always)]
-    fn linear(&self, i: usize, step: usize, normal_tol: f32, slope_tol: f32) -> bool {
-        let (l, r) = (i - step, i + step);
-        if self.is_background(l) || self.is_background(i) || self.is_background(r) {
-            return false;
-        }
-        if !self.same_surface(l, i, normal_tol) || !self.same_surface(i, r, normal_tol) {
-            return false;
-        }
-        let (ql, q, qr) = (
-            1.0 / self.depth[l],
-            1.0 / self.depth[i],
-            1.0 / self.depth[r],
-        );
-        ((qr - q) - (q - ql)).abs() < slope_tol * q
-    }
 }
 
-/// The neighbour rule with each pixel's linearity flags computed once.
+/// The neighbour rule with each pixel's bits computed once, so that every edge's id and normal
+/// test runs once and the labelling reads bits.
 struct Rule<'a> {
-    g: &'a GBuffer<'a>,
-    normal_tol: f32,
+    depth: &'a [f32],
+    width: usize,
     depth_tol: f32,
     pixel_angle: f32,
-    flags: Vec<u8>,
+    bits: Vec<u8>,
 }
 
 impl<'a> Rule<'a> {
@@ -111,39 +98,62 @@ impl<'a> Rule<'a> {
         // In f64, so that an independent implementation gets the same f32 tolerance bit for bit.
         let pixel_angle = (2.0 * ((p.fov_y as f64).to_radians() * 0.5).tan() / h as f64) as f32;
         let slope_tol = p.depth_tol * pixel_angle;
-        let mut flags = vec![0u8; w * h];
-        flags.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, f) in row.iter_mut().enumerate() {
+        let mut edges = vec![0u8; w * h];
+        edges.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, b) in row.iter_mut().enumerate() {
                 let i = y * w + x;
-                let lx = x > 0 && x + 1 < w && g.linear(i, 1, p.normal_tol, slope_tol);
-                let ly = y > 0 && y + 1 < h && g.linear(i, w, p.normal_tol, slope_tol);
-                *f = (u8::from(lx) * LINEAR_X) | (u8::from(ly) * LINEAR_Y);
+                if g.is_background(i) {
+                    *b = BACKGROUND;
+                    continue;
+                }
+                let same = |j: usize| !g.is_background(j) && g.same_surface(i, j, p.normal_tol);
+                let right = x + 1 < w && same(i + 1);
+                let down = y + 1 < h && same(i + w);
+                *b = (u8::from(right) * SAME_RIGHT) | (u8::from(down) * SAME_DOWN);
+            }
+        });
+        let q: Vec<f32> = g.depth.par_iter().map(|z| 1.0 / z).collect();
+        // A straight run along an axis: both edges through the pixel join one surface, and the
+        // second difference of 1/z is below `slope_tol · q`.
+        let straight = |i: usize, step: usize, same: u8| {
+            edges[i - step] & same != 0
+                && edges[i] & same != 0
+                && ((q[i + step] - q[i]) - (q[i] - q[i - step])).abs() < slope_tol * q[i]
+        };
+        let mut bits = edges.clone();
+        bits.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, b) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                let lx = x > 0 && x + 1 < w && straight(i, 1, SAME_RIGHT);
+                let ly = y > 0 && y + 1 < h && straight(i, w, SAME_DOWN);
+                *b |= (u8::from(lx) * LINEAR_X) | (u8::from(ly) * LINEAR_Y);
             }
         });
         Rule {
-            g,
-            normal_tol: p.normal_tol,
+            depth: g.depth,
+            width: w,
             depth_tol: p.depth_tol,
             pixel_angle,
-            flags,
+            bits,
         }
     }
 
-    /// Whether pixels `a` and `b`, neighbours along the axis of `axis` (`LINEAR_X` or
-    /// `LINEAR_Y`), belong to the same segment.
+    /// Whether pixel `i` joins its neighbour `i − step` (`step` 1: left, with `SAME_RIGHT` and
+    /// `LINEAR_X`; `step` = width: up, with `SAME_DOWN` and `LINEAR_Y`).
     #[inline(always)]
-    fn joins(&self, a: usize, b: usize, axis: u8) -> bool {
-        let g = self.g;
-        match (g.is_background(a), g.is_background(b)) {
-            (true, true) => return true,
-            (false, false) => {}
-            _ => return false,
+    fn joins(&self, i: usize, step: usize) -> bool {
+        let (same, linear) = if step == 1 {
+            (SAME_RIGHT, LINEAR_X)
+        } else {
+            debug_assert_eq!(step, self.width);
+            (SAME_DOWN, LINEAR_Y)
+        };
+        let (bo, bi) = (self.bits[i - step], self.bits[i]);
+        if bo & same == 0 {
+            return bo & bi & BACKGROUND != 0;
         }
-        if !g.same_surface(a, b, self.normal_tol) {
-            return false;
-        }
-        let (za, zb) = (g.depth[a], g.depth[b]);
-        (self.flags[a] | self.flags[b]) & axis != 0
+        let (za, zb) = (self.depth[i], self.depth[i - step]);
+        (bo | bi) & linear != 0
             || (za - zb).abs() < self.depth_tol * 0.5 * (za + zb) * self.pixel_angle
     }
 }
@@ -212,8 +222,8 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
             for ly in 0..local.len() / w {
                 for x in 0..w {
                     let i = ly * w + x;
-                    let left = x > 0 && rule.joins(base + i, base + i - 1, LINEAR_X);
-                    let up = ly > 0 && rule.joins(base + i, base + i - w, LINEAR_Y);
+                    let left = x > 0 && rule.joins(base + i, 1);
+                    let up = ly > 0 && rule.joins(base + i, w);
                     match (left, up) {
                         (false, false) => {}
                         (true, false) => local[i] = local[i - 1],
@@ -237,7 +247,7 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
     for y in (strip_rows..h).step_by(strip_rows) {
         for x in 0..w {
             let i = y * w + x;
-            if rule.joins(i, i - w, LINEAR_Y) {
+            if rule.joins(i, w) {
                 union(&mut parent, i as u32, (i - w) as u32, false);
             }
         }

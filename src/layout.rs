@@ -402,19 +402,67 @@ impl Source {
 }
 
 /// The input options `mixmc-mask` and `mixmc-composite` share: a preset, or our layout with
-/// channels renamed one by one.
+/// its indirect light renamed (each tool adds the channels it reads, so `--help` lists only those).
 #[derive(clap::Args, Debug, Clone)]
 pub struct LayoutArgs {
     /// Which renderer wrote the input: mixmc (one EXR), cycles (one multilayer EXR), luxcore
     /// (a directory of AOV files), mitsuba (the aov EXR, then the max_depth=2 EXR).
     #[arg(long, value_enum, default_value_t = Preset::Mixmc)]
     pub layout: Preset,
-    /// Direct light (mixmc layout): a channel prefix (PREFIX.R/G/B) or three comma-separated names [default: direct].
-    #[arg(long)]
-    pub direct: Option<String>,
-    /// Indirect light (mixmc layout): a channel prefix or three names [default: indirect].
+    /// Indirect light (mixmc layout): a channel prefix (PREFIX.R/G/B) or three comma-separated names [default: indirect].
     #[arg(long)]
     pub indirect: Option<String>,
+}
+
+/// A channel flag: its name, its value, and the field of `Names` it renames.
+type Rename<'a> = (
+    &'static str,
+    &'a Option<String>,
+    fn(&mut Names) -> &mut String,
+);
+
+impl LayoutArgs {
+    /// Open the input files with the chosen preset; channel flags only rename our layout's.
+    fn open_renamed(&self, paths: &[PathBuf], more: &[Rename]) -> Result<Source> {
+        let indirect: Rename = ("--indirect", &self.indirect, |n| &mut n.indirect);
+        let mut names = Names::default();
+        for &(flag, value, field) in std::iter::once(&indirect).chain(more) {
+            if let Some(v) = value {
+                if self.layout != Preset::Mixmc {
+                    return Err(Error::new(format!(
+                        "{flag} names a channel of the mixmc layout; --layout {} fixes its own channels",
+                        self.layout.name()
+                    )));
+                }
+                *field(&mut names) = v.clone();
+            }
+        }
+        self.layout.open(paths, names)
+    }
+}
+
+/// `mixmc-composite`'s input: the light, direct and indirect.
+#[derive(clap::Args, Debug, Clone)]
+pub struct LightArgs {
+    #[command(flatten)]
+    pub base: LayoutArgs,
+    /// Direct light (mixmc layout): a channel prefix or three names [default: direct].
+    #[arg(long)]
+    pub direct: Option<String>,
+}
+
+impl LightArgs {
+    pub fn open(&self, paths: &[PathBuf]) -> Result<Source> {
+        self.base
+            .open_renamed(paths, &[("--direct", &self.direct, |n| &mut n.direct)])
+    }
+}
+
+/// `mixmc-mask`'s input: the indirect light and the G-buffer.
+#[derive(clap::Args, Debug, Clone)]
+pub struct GBufferArgs {
+    #[command(flatten)]
+    pub base: LayoutArgs,
     /// Depth channel (mixmc layout; non-finite = background) [default: Z].
     #[arg(long)]
     pub depth: Option<String>,
@@ -426,35 +474,16 @@ pub struct LayoutArgs {
     pub matid: Option<String>,
 }
 
-impl LayoutArgs {
-    /// Open the input files with the chosen preset; channel flags only rename our layout's.
+impl GBufferArgs {
     pub fn open(&self, paths: &[PathBuf]) -> Result<Source> {
-        let d = Names::default();
-        let given = [
-            ("--direct", &self.direct),
-            ("--indirect", &self.indirect),
-            ("--depth", &self.depth),
-            ("--normal", &self.normal),
-            ("--matid", &self.matid),
-        ];
-        if self.layout != Preset::Mixmc
-            && let Some((flag, _)) = given.iter().find(|(_, v)| v.is_some())
-        {
-            return Err(Error::new(format!(
-                "{flag} names a channel of the mixmc layout; --layout {} fixes its own channels",
-                self.layout.name()
-            )));
-        }
-        let pick = |v: &Option<String>, default: String| v.clone().unwrap_or(default);
-        let names = Names {
-            direct: pick(&self.direct, d.direct),
-            indirect: pick(&self.indirect, d.indirect),
-            full: d.full,
-            depth: pick(&self.depth, d.depth),
-            normal: pick(&self.normal, d.normal),
-            matid: pick(&self.matid, d.matid),
-        };
-        self.layout.open(paths, names)
+        self.base.open_renamed(
+            paths,
+            &[
+                ("--depth", &self.depth, |n| &mut n.depth),
+                ("--normal", &self.normal, |n| &mut n.normal),
+                ("--matid", &self.matid, |n| &mut n.matid),
+            ],
+        )
     }
 }
 
@@ -575,15 +604,23 @@ mod tests {
 
     #[test]
     fn channel_flags_only_with_the_mixmc_layout() {
-        let args = LayoutArgs {
+        let base = |indirect: Option<&str>| LayoutArgs {
             layout: Preset::Cycles,
+            indirect: indirect.map(Into::into),
+        };
+        let light = LightArgs {
+            base: base(Some("x")),
             direct: None,
-            indirect: Some("x".into()),
+        };
+        let e = light.open(&[PathBuf::from("a.exr")]).unwrap_err();
+        assert!(e.message.starts_with("--indirect names a channel"), "{e}");
+        let gbuffer = GBufferArgs {
+            base: base(None),
             depth: None,
-            normal: None,
+            normal: Some("x".into()),
             matid: None,
         };
-        let e = args.open(&[PathBuf::from("a.exr")]).unwrap_err();
-        assert!(e.message.starts_with("--indirect names a channel"), "{e}");
+        let e = gbuffer.open(&[PathBuf::from("a.exr")]).unwrap_err();
+        assert!(e.message.starts_with("--normal names a channel"), "{e}");
     }
 }

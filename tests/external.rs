@@ -13,7 +13,8 @@ use util::{TempDir, fixture, run, run_ok};
 
 const SCENE: &str = "scenes/cornell-torus-tiny.json";
 const FOV: &str = "39.3077";
-/// The scene's complex share is ~30%, near the 0.35 switch; the tests compare masks, not switches.
+/// The scene's complex share (about half the image at 64 spp) is above the 0.35 switch; the
+/// tests compare masks and blends, not switches.
 const NO_SWITCH: [&str; 2] = ["--switch", "1"];
 const CYCLES_64: &str = "external/cycles/cornell-torus-tiny-64spp.exr";
 const CYCLES_128: &str = "external/cycles/cornell-torus-tiny-128spp.exr";
@@ -93,58 +94,86 @@ fn mask(dir: &TempDir, name: &str, inputs: &[String], layout: &str) -> PathBuf {
     out
 }
 
+/// Seeds per renderer: the masks fill whole surfaces, and at 64 spp one stray firefly that
+/// passes the spike gate marks a whole wall, so single renders disagree by walls even with
+/// themselves (our seeds against our majority: IoU 0.29–1.0; Cycles' against ours 0.51–0.91).
+/// Every mask here is the majority of five seeds' masks, ours and each renderer's alike.
+const SEEDS: u32 = 5;
+
+/// One renderer's input files for `seed` (seed 1: the files the other tests read; seeds 2–5:
+/// `-sN` beside them, fixtures/external/README.md).
+fn external_inputs(layout: &str, seed: u32) -> Vec<String> {
+    let tag = |base: &str| match seed {
+        1 => base.to_string(),
+        _ => format!("{base}-s{seed}"),
+    };
+    match layout {
+        "cycles" => vec![fixture(&format!(
+            "{}.exr",
+            tag(CYCLES_64.trim_end_matches(".exr"))
+        ))],
+        "luxcore" => vec![fixture(&tag(LUXCORE))],
+        _ => {
+            let aov = tag(MITSUBA[0].trim_end_matches(".exr"));
+            vec![
+                fixture(&format!("{aov}.exr")),
+                fixture(&format!("{aov}-direct.exr")),
+            ]
+        }
+    }
+}
+
+/// Pixels marked complex in more than half of `masks`.
+fn majority(masks: &[Vec<bool>]) -> Vec<bool> {
+    (0..masks[0].len())
+        .map(|i| 2 * masks.iter().filter(|m| m[i]).count() > masks.len())
+        .collect()
+}
+
 #[test]
 fn masks_from_external_renders_agree_with_ours() {
     let dir = TempDir::new("external-masks");
-    // Our mask at 64 spp flips whole segments between seeds (one seed of five here misses the
-    // back wall seen around the torus), so ours is the majority of five seeds' masks.
-    let seeds = 5;
-    let mut votes = vec![0u32; 64 * 64];
-    for seed in 1..=seeds {
-        let omc = dir.join(&format!("omc{seed}.exr")).display().to_string();
-        let s = seed.to_string();
-        run_ok(
-            "mixmc-omc",
-            &[
-                &fixture(SCENE),
-                "--method",
-                "pt",
-                "--spp",
-                "64",
-                "--seed",
-                &s,
-                "--threads",
-                "1",
-                "-q",
-                "-o",
-                &omc,
-            ],
-        );
-        let m = alpha(&mask(&dir, &format!("mask{seed}.exr"), &[omc], "mixmc"));
-        votes.iter_mut().zip(&m).for_each(|(v, c)| *v += *c as u32);
-    }
-    let ours: Vec<bool> = votes.iter().map(|v| 2 * v > seeds).collect();
+    let ours: Vec<Vec<bool>> = (1..=SEEDS)
+        .map(|seed| {
+            let omc = dir.join(&format!("omc{seed}.exr")).display().to_string();
+            let s = seed.to_string();
+            run_ok(
+                "mixmc-omc",
+                &[
+                    &fixture(SCENE),
+                    "--method",
+                    "pt",
+                    "--spp",
+                    "64",
+                    "--seed",
+                    &s,
+                    "--threads",
+                    "1",
+                    "-q",
+                    "-o",
+                    &omc,
+                ],
+            );
+            alpha(&mask(&dir, &format!("mask{seed}.exr"), &[omc], "mixmc"))
+        })
+        .collect();
+    let ours = majority(&ours);
     let fraction = ours.iter().filter(|c| **c).count() as f64 / ours.len() as f64;
     assert!(
         (0.05..0.6).contains(&fraction),
         "our complex share {fraction}"
     );
-    let cycles = alpha(&mask(&dir, "cycles.exr", &[fixture(CYCLES_64)], "cycles"));
-    let luxcore = alpha(&mask(&dir, "luxcore.exr", &[fixture(LUXCORE)], "luxcore"));
-    let mitsuba = alpha(&mask(&dir, "mitsuba.exr", &MITSUBA.map(fixture), "mitsuba"));
-    for (name, theirs) in [
-        ("cycles", &cycles),
-        ("luxcore", &luxcore),
-        ("mitsuba", &mitsuba),
-    ] {
-        let (iou, recall) = agreement(theirs, &ours);
+    for name in ["cycles", "luxcore", "mitsuba"] {
+        let theirs: Vec<Vec<bool>> = (1..=SEEDS)
+            .map(|seed| {
+                let out = format!("{name}{seed}.exr");
+                alpha(&mask(&dir, &out, &external_inputs(name, seed), name))
+            })
+            .collect();
+        let (iou, recall) = agreement(&majority(&theirs), &ours);
         eprintln!("complex region vs ours: {name} IoU {iou:.3}, covers {recall:.3} of ours");
         assert!(recall >= 0.8, "{name} covers {recall}");
-        // LuxCore's mask (RANDOM sampler, uniform light choice) also marks the ceiling and the
-        // torus at 64 spp: IoU 0.62, below the 0.7 (reported, not asserted).
-        if name != "luxcore" {
-            assert!(iou >= 0.7, "{name} IoU {iou}");
-        }
+        assert!(iou >= 0.7, "{name} IoU {iou}");
     }
 }
 
@@ -233,13 +262,11 @@ fn cycles_passes_with_our_mmlt_beat_cycles_alone() {
             &mcmc,
         ],
     );
-    run_ok(
-        "mixmc-composite",
-        &[
-            "--omc", &cycles, "--layout", "cycles", "--mask", &mask_exr, "--mcmc", &mcmc, "-o",
-            &fin,
-        ],
-    );
+    // A blend, not the MCMC-only switch, on the composite's side too: MMLT rendered with the mask.
+    let mut args = vec!["--omc", &cycles, "--layout", "cycles", "--mask", &mask_exr];
+    args.extend(["--mcmc", &mcmc, "-o", &fin]);
+    args.extend(NO_SWITCH);
+    run_ok("mixmc-composite", &args);
     let reference = rgb(&fixture("references/cornell-torus-tiny.exr"), Preset::Mixmc);
     let complex = alpha(Path::new(&mask_exr));
     // Whole-image and complex-region (α = 1) means of a metric's error map.

@@ -15,7 +15,7 @@ nearly black pixels, whose error is invisible, out). A pixel is complex in the o
 
 The error oracle (with --reference, for each scene whose reference file exists): mixmc-omc (PT) and
 mixmc-mmlt (indirect light) each render the scene for --equal-time seconds (seed 101, --threads
-threads, MMLT with 20 000 bootstrap samples per depth, counted in its time). Per pixel, the squared
+threads, MMLT with 20 000 bootstrap samples per depth, counted in its time), both at once. Per pixel, the squared
 error of the indirect luminance against the reference's, averaged over a 9x9 box: e_omc and e_mmlt.
 A pixel is complex when OMC's local RMS error is more than --ratio times MMLT's and is visible:
 sqrt(e_omc) > --visible * max(ref, 0.05 * mean(ref)), ref the reference's box-averaged luminance.
@@ -63,14 +63,18 @@ def error_oracle(ref, omc, mmlt, ratio, visible):
 
 
 def render_equal_time(scene, name, args):
-    out = {}
+    """Both renders run at the same time, so that they share whatever else loads the machine alike."""
+    out, running = {}, []
     for tool, extra in [("omc", []), ("mmlt", ["--bootstrap", "20000"])]:
         path = os.path.join(args.workdir, f"{name}-eqt-{tool}.exr")
         if not os.path.exists(path):
-            subprocess.run([os.path.join(BIN, f"mixmc-{tool}"), scene, "-o", path, "--time", str(args.equal_time),
-                            "--seed", "101", "--threads", str(args.threads), "-q"] + extra,
-                           check=True, stdout=subprocess.DEVNULL)
+            running.append(subprocess.Popen(
+                [os.path.join(BIN, f"mixmc-{tool}"), scene, "-o", path, "--time", str(args.equal_time),
+                 "--seed", "101", "--threads", str(args.threads), "-q"] + extra, stdout=subprocess.DEVNULL))
         out[tool] = path
+    for p in running:
+        if p.wait() != 0:
+            sys.exit(f"mask_oracle.py: {scene}: {p.args[0]} failed")
     return out
 
 

@@ -8,9 +8,11 @@ data structures: OpenCV / NumPy for the median noise, SciPy's connected componen
       W = 3 or 7: NumPy sliding_window_view over np.pad(mode="edge").
       Exact equality everywhere, interior and border.
   mask_reference.py segments OMC.exr MASK.exr
-      step 3: the same neighbour rule (equal matid, |dN| < normal_tol, |dz| < depth_tol pixel sizes,
-      background joins background only), components by scipy.sparse.csgraph; the partitions must
-      be equal (ids compared after renumbering by first pixel).
+      step 3: the same neighbour rule (equal matid, |dN| < normal_tol, and either |dz| < depth_tol
+      pixel sizes or one end on a straight run of 1/z along the edge's axis: its two neighbours
+      the same surface and |q- - 2q + q+| < depth_tol * pixel angle * q; background joins background
+      only), components by scipy.sparse.csgraph; the partitions must be equal (ids compared after
+      renumbering by first pixel).
   mask_reference.py alpha MASK.exr
       alpha takes only the values epsilon and 1, is constant inside each segment, never below epsilon.
 
@@ -96,20 +98,35 @@ def check_segments(omc, mask):
     bg = ~np.isfinite(z) | (mat < 0)
     idx = np.arange(h * w).reshape(h, w)
 
-    def joins(sa, sb):
-        bga, bgb = bg[sa], bg[sb]
+    def same_surface(sa, sb):
         dn = nrm[sa] - nrm[sb]
         dn2 = dn[..., 0] ** 2 + dn[..., 1] ** 2 + dn[..., 2] ** 2
+        return ~bg[sa] & ~bg[sb] & (mat[sa] == mat[sb]) & (dn2 < ntol * ntol)
+
+    def linear(axis):
+        """Per pixel: its two neighbours along `axis` continue its surface on a line of 1/z."""
+        flag = np.zeros((h, w), dtype=bool)
+        inner = tuple(slice(1, -1) if a == axis else slice(None) for a in (0, 1))
+        lo = tuple(slice(None, -2) if a == axis else slice(None) for a in (0, 1))
+        hi = tuple(slice(2, None) if a == axis else slice(None) for a in (0, 1))
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            ql, q, qr = np.float32(1) / z[lo], np.float32(1) / z[inner], np.float32(1) / z[hi]
+            straight = np.abs((qr - q) - (q - ql)) < dtol * angle * q
+        flag[inner] = same_surface(lo, inner) & same_surface(inner, hi) & straight
+        return flag
+
+    def joins(sa, sb, flag):
+        bga, bgb = bg[sa], bg[sb]
         za, zb = z[sa], z[sb]
         with np.errstate(invalid="ignore"):
             near = np.abs(za - zb) < dtol * np.float32(0.5) * (za + zb) * angle
-        surf = (mat[sa] == mat[sb]) & (dn2 < ntol * ntol) & near
-        return (bga & bgb) | (~bga & ~bgb & surf)
+        surf = same_surface(sa, sb) & (near | flag[sa] | flag[sb])
+        return (bga & bgb) | surf
 
     edges = []
-    for sa, sb in [((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
-                   ((slice(1, None), slice(None)), (slice(None, -1), slice(None)))]:
-        j = joins(sa, sb)
+    for axis, sa, sb in [(1, (slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                         (0, (slice(1, None), slice(None)), (slice(None, -1), slice(None)))]:
+        j = joins(sa, sb, linear(axis))
         edges.append((idx[sa][j], idx[sb][j]))
     a = np.concatenate([e[0] for e in edges])
     b = np.concatenate([e[1] for e in edges])

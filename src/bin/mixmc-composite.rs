@@ -7,7 +7,7 @@ use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, Options, composite};
 use mixmc::error::Error;
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
-use mixmc::layout::LayoutArgs;
+use mixmc::layout::LightArgs;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -22,7 +22,7 @@ struct Args {
     #[arg(long, required = true, num_args = 1..=2)]
     omc: Vec<PathBuf>,
     #[command(flatten)]
-    layout: LayoutArgs,
+    layout: LightArgs,
     /// Mask with an `alpha` channel (ε or 1; mixmc-mask's output).
     #[arg(long)]
     mask: PathBuf,

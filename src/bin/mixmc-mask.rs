@@ -4,7 +4,7 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
 use mixmc::error::{Error, Result};
-use mixmc::layout::{LayoutArgs, Source};
+use mixmc::layout::{GBufferArgs, Source};
 use mixmc::mask::{MaskInput, MaskParams, build, inspect, mask_image};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -46,7 +46,8 @@ struct Args {
     /// Neighbours join a segment only if their normals differ by less than this (|ΔN|).
     #[arg(long, default_value_t = 0.15)]
     normal_tol: f32,
-    /// … and their depths by less than this many projected pixel sizes.
+    /// … and their depths continue one surface within this many projected pixel sizes (a small
+    /// step, or a straight run of 1/depth along the row or column: slanted planes stay whole).
     #[arg(long, default_value_t = 2.0)]
     depth_tol: f32,
     /// Vertical field of view in degrees [default: the input's mixmc.fov_y header, else 40].
@@ -64,8 +65,11 @@ struct Args {
     /// Spike gate (not with --paper): … and at least this times the image's mean indirect luminance.
     #[arg(long, default_value_t = 5.0)]
     min_level: f32,
+    /// Spike gate (not with --paper): … in a segment whose mean noise is at least this times its median noise.
+    #[arg(long, default_value_t = 1.75)]
+    tail: f32,
     #[command(flatten)]
-    layout: LayoutArgs,
+    layout: GBufferArgs,
     /// Write one PNG per step into this directory.
     #[arg(long)]
     inspect: Option<PathBuf>,
@@ -110,8 +114,8 @@ impl Args {
             "--switch must be in (0, 1]",
         )?;
         check(
-            self.contrast >= 0.0 && self.min_level >= 0.0,
-            "--contrast and --min-level must not be negative",
+            self.contrast >= 0.0 && self.min_level >= 0.0 && self.tail >= 0.0,
+            "--contrast, --min-level and --tail must not be negative",
         )?;
         Ok(MaskParams {
             window: self.window,
@@ -125,6 +129,7 @@ impl Args {
             paper: self.paper,
             contrast: self.contrast,
             min_level: self.min_level,
+            tail: self.tail,
         })
     }
 }

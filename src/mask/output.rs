@@ -32,6 +32,7 @@ pub fn mask_image(m: &Mask, p: &MaskParams, input: &str, scene: Option<String>) 
         ("switch", p.switch),
         ("contrast", p.contrast as f64),
         ("min_level", p.min_level as f64),
+        ("tail", p.tail as f64),
         ("complex_fraction", m.complex_fraction),
         ("segments", m.segments.count as f64),
         ("complex_segments", m.complex_segments as f64),

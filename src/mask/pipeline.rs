@@ -12,14 +12,24 @@
 //! flags the noisiest 5% of pixels, so on a clean image ordinary Monte Carlo noise lights up
 //! every large segment. A pixel only counts in step 4 if its noise is also
 //! - at least `contrast` (16) times its segment's median noise: a failure of OMC is a spike far
-//!   outside the noise its own surface shows everywhere else, and
+//!   outside the noise its own surface shows everywhere else,
 //! - at least `min_level` (5) times the image's mean indirect luminance: a deviation that is
 //!   small against the light of the whole image is no visible failure however it compares
-//!   locally (a segment whose noise is mostly 0 passes any contrast test).
+//!   locally (a segment whose noise is mostly 0 passes any contrast test), and
+//! - in a segment whose noise is heavy-tailed: its mean noise at least `tail` (1.75) times its
+//!   median noise. Filling spreads one pixel's weight over the whole segment, so the segment
+//!   itself must show that OMC fails there, not one stray firefly on an otherwise well-converged
+//!   wall. Ordinary noise has a light tail: `|n|` of Gaussian noise has mean/median 1.18, of
+//!   Laplacian noise 1.44; where paths are found by chance (caustics, light through glass) a few
+//!   huge samples carry the mean.
 //!
 //! Measured at 64 spp (docs/mask.md): over the segments the literal variant flags, diffuse-only
 //! scenes peak at 14× their segment's median and 2.4× the mean luminance; the caustic scene's
-//! failing segments start at 209× and 13×. The defaults sit in both gaps.
+//! failing segments start at 209× and 13×. The defaults sit in both gaps. Segment tails (seeds
+//! 1–4): 1.17–1.36 on `clean`, 1.34–1.51 on the room's walls and floor, 1.36–2.03 in the
+//! bathroom, 1.88–3.18 on the caustic scenes' floors, 3.4–11 on every surface of cornell-torus,
+//! cornell-water and stress. `tail` sits between the room's walls and the caustic floors, with
+//! little margin on the caustic side.
 
 use super::input::MaskInput;
 use super::median::MedianNetwork;
@@ -54,6 +64,8 @@ pub struct MaskParams {
     pub contrast: f32,
     /// Spike gate: noise ≥ `min_level` × the image's mean indirect luminance.
     pub min_level: f32,
+    /// Spike gate: the segment's mean noise ≥ `tail` × its median noise.
+    pub tail: f32,
 }
 
 impl Default for MaskParams {
@@ -70,6 +82,7 @@ impl Default for MaskParams {
             paper: false,
             contrast: 16.0,
             min_level: 5.0,
+            tail: 1.75,
         }
     }
 }
@@ -130,8 +143,8 @@ pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
     (w, t, m)
 }
 
-/// Each segment's median noise, for the spike gate.
-fn segment_medians(noise: &[f32], seg: &Segments) -> Vec<f32> {
+/// Each segment's median and mean noise, for the spike gate.
+fn segment_noise(noise: &[f32], seg: &Segments) -> Vec<(f32, f64)> {
     let mut offsets = vec![0usize; seg.count + 1];
     for &l in &seg.labels {
         offsets[l as usize + 1] += 1;
@@ -155,8 +168,13 @@ fn segment_medians(noise: &[f32], seg: &Segments) -> Vec<f32> {
     parts
         .into_par_iter()
         .map(|p| {
+            // Summed in raster order before the selection reorders the part: deterministic.
+            let mean = p.iter().map(|&n| n as f64).sum::<f64>() / p.len() as f64;
             let mid = (p.len() - 1) / 2;
-            *p.select_nth_unstable_by(mid, |a, b| b.total_cmp(a)).1
+            (
+                *p.select_nth_unstable_by(mid, |a, b| b.total_cmp(a)).1,
+                mean,
+            )
         })
         .collect()
 }
@@ -180,16 +198,26 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
     };
     let segments = segment(&g, &sp);
     if !p.paper {
-        let seg_median = segment_medians(&noise, &segments);
         let mean_y = input.luminance.par_iter().map(|&y| y as f64).sum::<f64>()
             / input.luminance.len() as f64;
         let floor = p.min_level * mean_y as f32;
+        // Per segment, the noise a pixel must reach: none reaches it in a light-tailed segment.
+        let gate: Vec<f32> = segment_noise(&noise, &segments)
+            .into_iter()
+            .map(|(median, mean)| {
+                if mean >= p.tail as f64 * median as f64 {
+                    (p.contrast * median).max(floor)
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
         weight
             .par_iter_mut()
             .zip(&noise)
             .zip(&segments.labels)
             .for_each(|((w, &n), &l)| {
-                if n < p.contrast * seg_median[l as usize] || n < floor {
+                if n < gate[l as usize] {
                     *w = 0.0;
                 }
             });

@@ -140,7 +140,6 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     }
 
     let fraction = complex_fraction(alpha);
-    let switched = fraction > opts.switch;
     let mut warnings = Vec::new();
     let mut warn = |path: &Path, msg: String| warnings.push((path.display().to_string(), msg));
     let given_hash = alpha_hash(w, h, alpha);
@@ -149,6 +148,21 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
         .image
         .text_attr(MASK_PATH_ATTR)
         .unwrap_or_else(|| "(unnamed)".into());
+    // An MCMC image rendered with this very mask holds α·I only: MCMC alone would drop the
+    // rest of the indirect light, so eq. (2) is the one right composite whatever the share.
+    let rendered_with_this_mask = mcmc_hash.as_deref() == Some(given_hash.as_str());
+    let switched = fraction > opts.switch && !rendered_with_this_mask;
+    if fraction > opts.switch && rendered_with_this_mask && alpha.iter().any(|&a| a != 1.0) {
+        warn(
+            mcmc.path,
+            format!(
+                "warning: {:.1}% complex pixels > --switch {:.1}%, but this MCMC image was rendered \
+                 with this mask, so it is blended by eq. (2); for MCMC only, render MMLT without a mask",
+                100.0 * fraction,
+                100.0 * opts.switch
+            ),
+        );
+    }
     let alpha_used: Vec<f32> = if switched {
         vec![1.0; w * h]
     } else {

@@ -29,6 +29,10 @@ fn reference(scene: &str) -> (PathBuf, PathBuf) {
         .to_string_lossy()
         .into_owned();
     let full = dir.join(&format!("{stem}-bpt.exr"));
+    // The reference's own noise adds to MMLT's against the 5% block tolerance. With BPT's
+    // Russian roulette the caustic's block (32, 32) at seed 99 was 1.6% above two 2048-spp
+    // renders at 384 spp and 1.1% at 1024, against an MMLT block (seed 5) 3.9% below them.
+    let spp = if scene == CAUSTIC { "2048" } else { "512" };
     run_ok(
         "mixmc-omc",
         &[
@@ -38,7 +42,7 @@ fn reference(scene: &str) -> (PathBuf, PathBuf) {
             "--method",
             "bpt",
             "--spp",
-            "256",
+            spp,
             "--seed",
             "99",
             "-q",

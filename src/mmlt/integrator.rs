@@ -494,6 +494,7 @@ fn normalisation(
                         sample,
                         (w, h),
                         &mut paths,
+                        false,
                         visit,
                     );
                 }

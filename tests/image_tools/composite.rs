@@ -229,7 +229,7 @@ fn fxaa_reduces_the_error_of_an_aliased_seam() {
 }
 
 #[test]
-fn switch_renders_mcmc_only_and_warns_about_a_masked_mcmc() {
+fn switch_renders_mcmc_only_unless_the_mcmc_was_rendered_with_the_mask() {
     let dir = temp_dir("switch");
     let (w, h) = (10, 10);
     let n = w * h;
@@ -262,7 +262,18 @@ fn switch_renders_mcmc_only_and_warns_about_a_masked_mcmc() {
         &m,
         Some(&alpha),
     );
-    let (out, err) = composite(&dir, &masked, &[]);
+    // Rendered with this very mask, the MCMC image holds α·I only: blended, never switched.
+    let (out, err) = composite(&dir, &masked, &["--no-fxaa"]);
+    assert_eq!(rgb(&out, ""), eq2(&d, &i, &alpha, &m));
+    assert_eq!(out.text_attr("mixmc.switched").as_deref(), Some("false"));
+    assert!(
+        err.contains("warning") && err.contains("blended by eq. (2)"),
+        "{err}"
+    );
+    // Rendered with another mask: switched, with the warning that it needs an unmasked one.
+    let other: Vec<f32> = (0..n).map(|p| if p < 50 { 1.0 } else { EPS }).collect();
+    let stale = write_inputs(&dir.join("stale"), (w, h), &d, &i, &alpha, &m, Some(&other));
+    let (out, err) = composite(&dir, &stale, &[]);
     assert_eq!(rgb(&out, ""), d_plus_m);
     assert!(
         err.contains("warning") && err.contains("without a mask"),

@@ -62,7 +62,9 @@ pub struct Paths {
 /// by every strategy of `strategies` up to `max_depth`. `visit(depth, splat, value)` receives each
 /// MIS-weighted value, with `splat` the film pixel for light-tracing strategies (t = 1) and
 /// `None` for the pixel's own, indexed in a film of `size` (w, h). Shared by the OMC passes and MMLT's estimate of its normalisation,
-/// which must see the same strategies and weights.
+/// which must see the same strategies and weights. `roulette`: Russian roulette in both
+/// sub-paths (cheaper samples, more variance; MMLT's b, a single number from few samples, is
+/// estimated without it).
 #[allow(clippy::too_many_arguments)]
 pub fn trace_sample(
     scene: &Scene,
@@ -73,6 +75,7 @@ pub fn trace_sample(
     (x, y): (usize, usize),
     (w, h): (usize, usize),
     paths: &mut Paths,
+    roulette: bool,
     mut visit: impl FnMut(u32, Option<usize>, Rgb),
 ) {
     let max_cam = max_depth as usize + 2;
@@ -86,17 +89,17 @@ pub fn trace_sample(
     if strategies == Strategies::Lt {
         // Only paths through a specular first vertex need the camera side.
         let start = rng.clone();
-        camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), true, cam);
+        camera_subpath(scene, fx, fy, &mut rng, 2.min(max_cam), roulette, cam);
         if cam.len() == 2 && cam[1].delta {
             rng = start;
-            camera_subpath(scene, fx, fy, &mut rng, max_cam, true, cam);
+            camera_subpath(scene, fx, fy, &mut rng, max_cam, roulette, cam);
         } else {
             cam.truncate(1);
         }
     } else {
-        camera_subpath(scene, fx, fy, &mut rng, max_cam, true, cam);
+        camera_subpath(scene, fx, fy, &mut rng, max_cam, roulette, cam);
     }
-    light_subpath(scene, &mut light_rng, max_light, true, light);
+    light_subpath(scene, &mut light_rng, max_light, roulette, light);
     for t in 1..=cam.len() {
         for s in 0..=light.len() {
             if s + t < 2 || s + t - 2 > max_depth as usize {
@@ -150,6 +153,7 @@ pub fn render_pass(
                     (x, y),
                     (w, h),
                     &mut paths,
+                    true,
                     visit,
                 );
             }

@@ -8,6 +8,13 @@ use std::process::ExitCode;
 
 /// Run a tool's body: errors print as one line `TOOL: FILE: what is wrong` and exit with 2.
 pub fn main_with(tool: &str, run: impl FnOnce() -> Result<ExitCode>) -> ExitCode {
+    // Rust ignores SIGPIPE, so `mixmc-diff … | head -1` would panic on the closed pipe; a Unix
+    // tool ends quietly there instead. Output files are unaffected: they are complete and
+    // renamed into place before anything is printed.
+    // SAFETY: setting a signal's disposition to its default, before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     match run() {
         Ok(code) => code,
         Err(e) => {

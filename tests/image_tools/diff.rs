@@ -161,3 +161,23 @@ fn exit_codes_threshold_and_heatmap() {
         &["does not fit"],
     );
 }
+
+/// A reader that goes away (`mixmc-diff … | head -1`) ends the tool quietly, as it does any Unix
+/// tool: killed by SIGPIPE, no panic message.
+#[test]
+fn a_closed_stdout_ends_the_tool_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let dir = temp_dir("diff-pipe");
+    let (image, reference) = write_pair(&dir, 32, 32);
+    let mut child = Command::new(DIFF)
+        .args([path_str(&image), path_str(&reference)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{out:?}");
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+}

@@ -31,6 +31,12 @@ include!(concat!(env!("OUT_DIR"), "/median_kernels.rs"));
 /// Pairs of output pixels per AVX step (one per lane).
 #[cfg(target_arch = "x86_64")]
 const LANES: usize = 8;
+/// The farthest a pair's columns reach right of it, in one parity half: column c of pair m is
+/// value m + c/2 of its half, c ≤ 7.
+const EXTRA: usize = 3;
+/// Values of one parity half an AVX step reads.
+#[cfg(target_arch = "x86_64")]
+const REACH: usize = LANES + EXTRA;
 
 /// The median filter for one window size.
 #[derive(Clone, Copy, Debug)]
@@ -69,10 +75,23 @@ impl MedianNetwork {
 
     /// Median-filter a `width`×`height` image (row-major), borders clamped to the edge.
     pub fn apply(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
-        self.apply_with(src, width, height, Kernel::detect())
+        self.apply_with(src, width, height, Kernel::detect(), false)
     }
 
-    fn apply_with(&self, src: &[f32], width: usize, height: usize, kernel: Kernel) -> Vec<f32> {
+    /// `|src − median(src)|`, the mask's noise: the difference is taken row by row while the
+    /// row is in cache, instead of in a second pass over two whole images.
+    pub fn abs_diff(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
+        self.apply_with(src, width, height, Kernel::detect(), true)
+    }
+
+    fn apply_with(
+        &self,
+        src: &[f32],
+        width: usize,
+        height: usize,
+        kernel: Kernel,
+        diff: bool,
+    ) -> Vec<f32> {
         assert_eq!(src.len(), width * height);
         let mut dst = vec![0.0f32; src.len()];
         if src.is_empty() {
@@ -80,11 +99,18 @@ impl MedianNetwork {
         }
         dst.par_chunks_mut(width).enumerate().for_each_init(
             || RowScratch::new(self.w, width),
-            |s, (y, out)| match kernel {
-                Kernel::Scalar => row_scalar(self.w, src, height, y, s, out),
-                // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
-                #[cfg(target_arch = "x86_64")]
-                Kernel::Avx => unsafe { row_avx(self.w, src, height, y, s, out) },
+            |s, (y, out)| {
+                match kernel {
+                    Kernel::Scalar => row_scalar(self.w, src, height, y, s, out),
+                    // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
+                    #[cfg(target_arch = "x86_64")]
+                    Kernel::Avx => unsafe { row_avx(self.w, src, height, y, s, out) },
+                }
+                if diff {
+                    for (o, &v) in out.iter_mut().zip(&src[y * width..(y + 1) * width]) {
+                        *o = (v - *o).abs();
+                    }
+                }
             },
         );
         dst
@@ -94,7 +120,8 @@ impl MedianNetwork {
 /// Per-thread buffers: the w padded input rows of one output row, and the same split by
 /// parity and column-sorted.
 struct RowScratch {
-    /// Length of one parity half of a row: the pairs plus the window's reach past them.
+    /// Length of one parity half of a row: the pairs plus the farthest reach past them of any
+    /// window size (`EXTRA`), so that an AVX step reads the same span for every size.
     half: usize,
     cols: Vec<f32>,
     split: Vec<f32>,
@@ -102,7 +129,7 @@ struct RowScratch {
 
 impl RowScratch {
     fn new(w: usize, width: usize) -> RowScratch {
-        let half = width.div_ceil(2) + w / 2;
+        let half = width.div_ceil(2) + EXTRA;
         RowScratch {
             half,
             cols: vec![0.0; 2 * w * half],
@@ -213,15 +240,36 @@ fn load8(v: &[f32]) -> __m256 {
 #[target_feature(enable = "avx")]
 fn row_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
     prepare(w, src, height, y, s);
-    let (split, half) = (&s.split[..], s.half);
     let full = out.len() / 2 / LANES * LANES;
+    match w {
+        3 => pairs_avx::<3>(s, full, out),
+        5 => pairs_avx::<5>(s, full, out),
+        _ => pairs_avx::<7>(s, full, out),
+    }
+    pairs_scalar(w, s, full, out);
+}
+
+/// The pairs `0..full` (a multiple of eight) of a prepared row with the `W`×`W` AVX kernel.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn pairs_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
+    let (split, half) = (&s.split[..], s.half);
     for m0 in (0..full).step_by(LANES) {
+        // The values this step reads from each of the 2W sorted rows, as fixed-size arrays, so
+        // the kernel's loads need no bounds checks (unused entries repeat row 0).
+        let rows: [&[f32; REACH]; 14] = std::array::from_fn(|i| {
+            let start = if i < 2 * W { i * half + m0 } else { m0 };
+            split[start..start + REACH]
+                .try_into()
+                .expect("REACH floats")
+        });
+        // Rank r of window column c of the pairs m0..m0 + 8: padded columns 2m + c.
         macro_rules! leaf {
             ($c:literal, $r:literal) => {
-                load8(&split[($c % 2 * w + $r) * half + m0 + $c / 2..])
+                load8(&rows[$c % 2 * W + $r][$c / 2..])
             };
         }
-        let [left, right] = match w {
+        let [left, right] = match W {
             3 => median_pair_3!(leaf, _mm256_min_ps, _mm256_max_ps),
             5 => median_pair_5!(leaf, _mm256_min_ps, _mm256_max_ps),
             _ => median_pair_7!(leaf, _mm256_min_ps, _mm256_max_ps),
@@ -243,7 +291,6 @@ fn row_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, o
             );
         }
     }
-    pairs_scalar(w, s, full, out);
 }
 
 /// The same filter by brute force (copy the window, select the middle): the reference the fast
@@ -317,13 +364,23 @@ mod tests {
                 let want = median_reference(&img, width, height, w);
                 for k in kernels() {
                     assert_eq!(
-                        net.apply_with(&img, width, height, k),
+                        net.apply_with(&img, width, height, k, false),
                         want,
                         "w={w} {width}x{height} {k:?}"
                     );
                 }
             }
         }
+    }
+
+    #[test]
+    fn abs_diff_is_the_distance_to_the_median() {
+        let (width, height) = (37, 6);
+        let img = noise_image(width, height, 9);
+        let net = MedianNetwork::new(5);
+        let med = median_reference(&img, width, height, 5);
+        let want: Vec<f32> = img.iter().zip(&med).map(|(y, m)| (y - m).abs()).collect();
+        assert_eq!(net.abs_diff(&img, width, height), want);
     }
 
     #[test]
@@ -344,7 +401,7 @@ mod tests {
         for w in [3, 5, 7] {
             let net = MedianNetwork::new(w);
             let bits = |k| -> Vec<u32> {
-                net.apply_with(&img, width, height, k)
+                net.apply_with(&img, width, height, k, false)
                     .iter()
                     .map(|v| v.to_bits())
                     .collect()

@@ -131,8 +131,12 @@ pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
 /// `contrast` times its segment's median noise. The floor needs no median and goes first; only
 /// the segments that still hold a weight then need their median (on a clean image few or none).
 fn spike_gate(noise: &[f32], weight: &mut [f32], seg: &Segments, contrast: f32, floor: f32) {
-    // One part per thread: each keeps per-segment state for the segments it meets.
-    let chunk = noise.len().div_ceil(rayon::current_num_threads()).max(1);
+    // A few parts per thread (so a thread slowed by other work can be relieved), each with
+    // per-segment state for the segments it meets.
+    let chunk = noise
+        .len()
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(1);
     let held: Vec<Vec<u32>> = weight
         .par_chunks_mut(chunk)
         .zip(noise.par_chunks(chunk))
@@ -287,7 +291,7 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
     let complex_fraction = complex as f64 / alpha.len() as f64;
     let switched = complex_fraction > p.switch;
     if switched {
-        alpha.fill(1.0);
+        alpha.par_iter_mut().for_each(|a| *a = 1.0);
     }
     Mask {
         width,

@@ -8,7 +8,7 @@
 //! 1. each column of the w input rows is sorted once (a small sorting network on whole row
 //!    slices, which the compiler vectorises) and shared by the w windows that contain it;
 //! 2. pairs of horizontally adjacent medians are selected from their w + 1 sorted columns by the
-//!    pruned min/max network of [`super::median_net`] (184 operations per pixel for w = 7, 80 for
+//!    pruned min/max network of `median_net.rs` (184 operations per pixel for w = 7, 80 for
 //!    w = 5), which `build.rs` turns into straight-line code: the compiler keeps its values in
 //!    registers, where an interpreted network spends two loads and a store on each operation;
 //! 3. with AVX (detected at run time; the build targets baseline x86-64) eight pairs run at
@@ -16,7 +16,9 @@
 //!
 //! Both kernels use `min(a, b) = if a < b { a } else { b }` (and `max` alike), which is what
 //! the AVX instructions compute, so they agree bit for bit, signed zeros and infinities
-//! included. NaN has no median; the mask's input holds none (`input` repairs non-finite light).
+//! included. NaN has no median: with one the result is whatever these operations give (the same
+//! operations in the same order as the interpreted network this replaced); the mask's input holds
+//! none (`input` repairs non-finite light).
 
 use rayon::prelude::*;
 #[cfg(target_arch = "x86_64")]

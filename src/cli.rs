@@ -140,9 +140,35 @@ pub fn init_threads(threads: Option<usize>) -> Result<()> {
     Ok(())
 }
 
+/// CPU seconds this process has used so far, all threads together (NaN where the clock cannot
+/// be read): beside a step's wall time it tells parallel work from waiting on a busy machine.
+pub fn process_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to write.
+    if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
 #[cfg(test)]
 mod tests {
-    use super::shell_quote;
+    use super::{process_cpu_seconds, shell_quote};
+
+    #[test]
+    fn process_cpu_time_counts_work() {
+        // 0.2 s of spinning on one thread: some CPU time however busy the machine.
+        let (start, wall) = (process_cpu_seconds(), std::time::Instant::now());
+        let mut x = 1u64;
+        while wall.elapsed().as_secs_f64() < 0.2 {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+        }
+        let used = process_cpu_seconds() - start;
+        assert!(used > 0.001 && used.is_finite(), "{used} s");
+    }
 
     #[test]
     fn shell_quote_leaves_plain_words_and_quotes_the_rest() {

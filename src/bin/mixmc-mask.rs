@@ -2,7 +2,7 @@
 //! indirect light and G-buffer; see `mixmc::mask` for the steps and the default's spike gate.
 
 use clap::Parser;
-use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
+use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with, process_cpu_seconds};
 use mixmc::error::{Error, Result};
 use mixmc::layout::{GBufferArgs, Source};
 use mixmc::mask::{MaskInput, MaskParams, build, inspect, mask_image};
@@ -164,9 +164,10 @@ fn main() -> ExitCode {
                 input_path.display()
             );
         }
-        let start = Instant::now();
+        let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
         let mask = build(&input, &params);
         let seconds = start.elapsed().as_secs_f64();
+        let cpu_seconds = process_cpu_seconds() - cpu_start;
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &input, &mask)?;
         }
@@ -201,6 +202,7 @@ fn main() -> ExitCode {
                 "fov_y": params.fov_y,
                 "fov_source": fov_source,
                 "compute_seconds": seconds,
+                "compute_cpu_seconds": cpu_seconds,
             });
             println!("{summary}");
         } else {

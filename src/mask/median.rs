@@ -3,367 +3,172 @@
 //! `np.pad(mode="edge")` and OpenCV's `BORDER_REPLICATE` do.
 //!
 //! Why a generated network: a median of 49 floats per pixel by `select_nth_unstable` costs
-//! hundreds of unpredictable branches per pixel. Instead every output row is computed with
-//! branch-free min/max operations on whole row slices (which the compiler vectorises):
-//! 1. each column of the w input rows is sorted once (a small sorting network) and shared by the
-//!    w windows that contain it;
-//! 2. two horizontally adjacent windows share w − 1 sorted columns: those are merged once, as
-//!    the presorted groups of Batcher's odd-even merge sort on 64 wires (groups of 8, the
-//!    missing values +∞), so only its merge phases remain; they are simulated symbolically
-//!    once, comparators touching +∞ are dropped;
-//! 3. each of the two medians is then selected from that merged list and its own column with
-//!    the order-statistic identity in [`MedianNetwork::new`], and only the min/max operations
-//!    the two medians depend on are kept: 184 per pixel for w = 7 (80 for w = 5), where one
-//!    window at a time needed 372 (152).
+//! hundreds of unpredictable branches per pixel. Instead each output row is computed
+//! branch-free:
+//! 1. each column of the w input rows is sorted once (a small sorting network on whole row
+//!    slices, which the compiler vectorises) and shared by the w windows that contain it;
+//! 2. pairs of horizontally adjacent medians are selected from their w + 1 sorted columns by the
+//!    pruned min/max network of `median_net.rs` (184 operations per pixel for w = 7, 80 for
+//!    w = 5), which `build.rs` turns into straight-line code: the compiler keeps its values in
+//!    registers, where an interpreted network spends two loads and a store on each operation;
+//! 3. with AVX (detected at run time; the build targets baseline x86-64) eight pairs run at
+//!    once, one per lane; otherwise, and for the last pairs of a row, one pair at a time.
+//!
+//! Both kernels use `min(a, b) = if a < b { a } else { b }` (and `max` alike), which is what
+//! the AVX instructions compute, so they agree bit for bit, signed zeros and infinities
+//! included. NaN has no median: with one the result is whatever these operations give (the same
+//! operations in the same order as the interpreted network this replaced); the mask's input holds
+//! none (`input` repairs non-finite light).
 
 use rayon::prelude::*;
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::{
+    __m256, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_permute2f128_ps,
+    _mm256_storeu_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+};
 
-/// Pixel pairs per chunk: the network's working set (slots × CHUNK floats) stays in L1/L2.
-const CHUNK: usize = 64;
-/// Wires of the Batcher network and the size of its presorted groups (one group per column).
-const WIRES: usize = 64;
-const GROUP: usize = 8;
+// `median_pair_3`, `median_pair_5`, `median_pair_7`: the networks as straight-line code.
+include!(concat!(env!("OUT_DIR"), "/median_kernels.rs"));
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Node {
-    /// Rank `r` of window column `c` (columns presorted ascending).
-    Leaf {
-        c: u8,
-        r: u8,
-    },
-    Inf,
-    Min(u32, u32),
-    Max(u32, u32),
-}
+/// Pairs of output pixels per AVX step (one per lane).
+#[cfg(target_arch = "x86_64")]
+const LANES: usize = 8;
+/// The farthest a pair's columns reach right of it, in one parity half: column c of pair m is
+/// value m + c/2 of its half, c ≤ 7.
+const EXTRA: usize = 3;
+/// Values of one parity half an AVX step reads.
+#[cfg(target_arch = "x86_64")]
+const REACH: usize = LANES + EXTRA;
 
-/// One straight-line operation on chunk-wide slots: `dst = min/max(a, b)`.
+/// The median filter for one window size.
 #[derive(Clone, Copy, Debug)]
-struct Op {
-    max: bool,
-    a: u16,
-    b: u16,
-    dst: u16,
-}
-
-/// The pruned median network for one window size, ready to run on row slices.
-#[derive(Debug)]
 pub struct MedianNetwork {
     w: usize,
-    ops: Vec<Op>,
-    /// Leaf (column, rank) loaded into each of the first slots.
-    leaves: Vec<(u8, u8)>,
-    slots: usize,
-    /// The slots of the left and the right median.
-    out: [u16; 2],
 }
 
-/// Batcher's odd-even merge sort comparators for `WIRES` wires, merge phases from group size
-/// `GROUP` up (the phases below only sort within groups, which the presorted columns already are).
-fn batcher_merge_phases() -> Vec<(usize, usize)> {
-    let mut cmp = Vec::new();
-    let mut p = GROUP;
-    while p < WIRES {
-        let mut k = p;
-        while k >= 1 {
-            let mut j = k % p;
-            while j + k < WIRES {
-                for i in 0..k.min(WIRES - j - k) {
-                    if (i + j) / (2 * p) == (i + j + k) / (2 * p) {
-                        cmp.push((i + j, i + j + k));
-                    }
-                }
-                j += 2 * k;
-            }
-            k /= 2;
+/// Which kernel computes the pairs of medians.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kernel {
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Avx,
+}
+
+impl Kernel {
+    /// The fastest kernel this CPU runs.
+    fn detect() -> Kernel {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            return Kernel::Avx;
         }
-        p *= 2;
+        Kernel::Scalar
     }
-    cmp
 }
 
 impl MedianNetwork {
-    /// Build the network for a `w`×`w` window (odd, 3..=7). It computes two horizontally
-    /// adjacent medians at once, over the w + 1 columns `0..=w`: the w − 1 columns both windows
-    /// share are merged once (Batcher), then each median is selected from that sorted list A
-    /// and its own column B by the order-statistic identity
-    /// `k-th of A ∪ B = min_{i+j=k+1} max(A[i−1], B[j−1])` (an empty prefix counts as −∞):
-    /// every split of the first k + 1 values bounds the k-th from above, and the split the
-    /// merged order makes attains it. Only the ranks of A that identity reads are kept.
+    /// The filter for a `w`×`w` window (odd, 3..=7).
     pub fn new(w: usize) -> MedianNetwork {
         assert!(
             w % 2 == 1 && (3..=7).contains(&w),
             "median window must be odd and 3..=7"
         );
-        let mut nodes: Vec<Node> = Vec::new();
-        let push = |nodes: &mut Vec<Node>, n: Node| {
-            nodes.push(n);
-            (nodes.len() - 1) as u32
-        };
-        // The shared columns 1..w sit in the network's first w − 1 groups.
-        let mut wires: Vec<u32> = Vec::with_capacity(WIRES);
-        for g in 0..WIRES / GROUP {
-            for r in 0..GROUP {
-                let node = if g + 1 < w && r < w {
-                    Node::Leaf {
-                        c: (g + 1) as u8,
-                        r: r as u8,
-                    }
-                } else {
-                    Node::Inf
-                };
-                wires.push(push(&mut nodes, node));
-            }
-        }
-        for (i, j) in batcher_merge_phases() {
-            let (a, b) = (wires[i], wires[j]);
-            match (nodes[a as usize], nodes[b as usize]) {
-                (_, Node::Inf) => {}
-                (Node::Inf, _) => wires.swap(i, j),
-                _ => {
-                    wires[i] = push(&mut nodes, Node::Min(a, b));
-                    wires[j] = push(&mut nodes, Node::Max(a, b));
-                }
-            }
-        }
-        let k = (w * w - 1) / 2;
-        let outs = [0, w].map(|c| {
-            let mut acc = wires[k];
-            for j in 1..=w {
-                let b = push(
-                    &mut nodes,
-                    Node::Leaf {
-                        c: c as u8,
-                        r: (j - 1) as u8,
-                    },
-                );
-                let term = push(&mut nodes, Node::Max(wires[k - j], b));
-                acc = push(&mut nodes, Node::Min(acc, term));
-            }
-            acc
-        });
-        // Keep only what the medians depend on.
-        let mut live = vec![false; nodes.len()];
-        for o in outs {
-            live[o as usize] = true;
-        }
-        for id in (0..nodes.len()).rev() {
-            if live[id]
-                && let Node::Min(a, b) | Node::Max(a, b) = nodes[id]
-            {
-                live[a as usize] = true;
-                live[b as usize] = true;
-            }
-        }
-        // The outputs are used at the very end, after every op.
-        let mut last_use = vec![0usize; nodes.len()];
-        for (id, n) in nodes.iter().enumerate() {
-            if live[id]
-                && let Node::Min(a, b) | Node::Max(a, b) = n
-            {
-                last_use[*a as usize] = id;
-                last_use[*b as usize] = id;
-            }
-        }
-        for o in outs {
-            last_use[o as usize] = usize::MAX;
-        }
-        // Slot allocation: leaves first, then each result takes a free slot; inputs are freed
-        // after the destination is chosen so an op never writes a slot it reads.
-        let mut slot_of = vec![u16::MAX; nodes.len()];
-        let mut leaves = Vec::new();
-        for (id, n) in nodes.iter().enumerate() {
-            if let (true, Node::Leaf { c, r }) = (live[id], n) {
-                slot_of[id] = leaves.len() as u16;
-                leaves.push((*c, *r));
-            }
-        }
-        let mut slots = leaves.len();
-        let mut free: Vec<u16> = Vec::new();
-        let mut ops = Vec::new();
-        for id in 0..nodes.len() {
-            let (max, a, b) = match nodes[id] {
-                Node::Min(a, b) if live[id] => (false, a, b),
-                Node::Max(a, b) if live[id] => (true, a, b),
-                _ => continue,
-            };
-            let dst = free.pop().unwrap_or_else(|| {
-                slots += 1;
-                (slots - 1) as u16
-            });
-            slot_of[id] = dst;
-            ops.push(Op {
-                max,
-                a: slot_of[a as usize],
-                b: slot_of[b as usize],
-                dst,
-            });
-            for x in [a, b] {
-                if last_use[x as usize] == id {
-                    free.push(slot_of[x as usize]);
-                }
-            }
-        }
-        MedianNetwork {
-            w,
-            ops,
-            leaves,
-            slots,
-            out: outs.map(|o| slot_of[o as usize]),
-        }
-    }
-
-    /// Number of min/max operations per pixel (excluding the shared column sort).
-    pub fn ops_per_pixel(&self) -> f64 {
-        self.ops.len() as f64 / 2.0
+        MedianNetwork { w }
     }
 
     /// Median-filter a `width`×`height` image (row-major), borders clamped to the edge.
     pub fn apply(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
+        self.apply_with(src, width, height, Kernel::detect(), false)
+    }
+
+    /// `|src − median(src)|`, the mask's noise: the difference is taken row by row while the
+    /// row is in cache, instead of in a second pass over two whole images.
+    pub fn abs_diff(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
+        self.apply_with(src, width, height, Kernel::detect(), true)
+    }
+
+    fn apply_with(
+        &self,
+        src: &[f32],
+        width: usize,
+        height: usize,
+        kernel: Kernel,
+        diff: bool,
+    ) -> Vec<f32> {
         assert_eq!(src.len(), width * height);
         let mut dst = vec![0.0f32; src.len()];
         if src.is_empty() {
             return dst;
         }
         dst.par_chunks_mut(width).enumerate().for_each_init(
-            || RowScratch::new(self, width),
-            |scratch, (y, out)| self.row_dispatch(src, width, height, y, scratch, out),
+            || RowScratch::new(self.w, width),
+            |s, (y, out)| {
+                match kernel {
+                    Kernel::Scalar => row_scalar(self.w, src, height, y, s, out),
+                    // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
+                    #[cfg(target_arch = "x86_64")]
+                    Kernel::Avx => unsafe { row_avx(self.w, src, height, y, s, out) },
+                }
+                if diff {
+                    for (o, &v) in out.iter_mut().zip(&src[y * width..(y + 1) * width]) {
+                        *o = (v - *o).abs();
+                    }
+                }
+            },
         );
         dst
     }
-
-    /// The row with 8-wide AVX2 min/max where the CPU has them (the build targets baseline
-    /// x86-64, whose SSE2 gives 4 lanes): the same code, compiled twice.
-    fn row_dispatch(
-        &self,
-        src: &[f32],
-        width: usize,
-        height: usize,
-        y: usize,
-        s: &mut RowScratch,
-        out: &mut [f32],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { self.row_avx2(src, width, height, y, s, out) };
-            return;
-        }
-        self.row(src, width, height, y, s, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn row_avx2(
-        &self,
-        src: &[f32],
-        width: usize,
-        height: usize,
-        y: usize,
-        s: &mut RowScratch,
-        out: &mut [f32],
-    ) {
-        self.row(src, width, height, y, s, out)
-    }
-
-    #[inline(always)]
-    fn row(
-        &self,
-        src: &[f32],
-        width: usize,
-        height: usize,
-        y: usize,
-        s: &mut RowScratch,
-        out: &mut [f32],
-    ) {
-        let (w, h) = (self.w, self.w / 2);
-        // Clamped input rows, each padded left and right with its edge pixel.
-        let half = s.half;
-        for (r, padded) in s.cols.chunks_mut(2 * half).enumerate() {
-            let sy = (y + r).saturating_sub(h).min(height - 1);
-            let row = &src[sy * width..(sy + 1) * width];
-            padded[..h].fill(row[0]);
-            padded[h..h + width].copy_from_slice(row);
-            padded[h + width..].fill(row[width - 1]);
-        }
-        // Lane i computes the pixels 2i and 2i + 1 of a chunk, so the rows are split by
-        // parity, `split[p][r][m]` = padded row r's value 2m + p, and then column-sorted.
-        let (even, odd) = s.split.split_at_mut(w * half);
-        for ((padded, e), o) in s
-            .cols
-            .chunks(2 * half)
-            .zip(even.chunks_mut(half))
-            .zip(odd.chunks_mut(half))
-        {
-            for ((pair, e), o) in padded.chunks_exact(2).zip(e).zip(o) {
-                *e = pair[0];
-                *o = pair[1];
-            }
-        }
-        for parity in s.split.chunks_mut(w * half) {
-            sort_columns(parity, half, w);
-        }
-        let pairs = width.div_ceil(2);
-        for m0 in (0..pairs).step_by(CHUNK) {
-            let n = CHUNK.min(pairs - m0);
-            for (slot, &(c, r)) in s.slots.chunks_mut(CHUNK).zip(&self.leaves) {
-                let (c, r) = (c as usize, r as usize);
-                let start = ((c % 2) * w + r) * half + m0 + c / 2;
-                slot[..n].copy_from_slice(&s.split[start..start + n]);
-            }
-            for op in &self.ops {
-                let [d, a, b] = match s.slots_as_chunks().get_disjoint_mut([
-                    op.dst as usize,
-                    op.a as usize,
-                    op.b as usize,
-                ]) {
-                    Ok(v) => v,
-                    Err(_) => unreachable!("network slots are distinct by construction"),
-                };
-                if op.max {
-                    for ((d, a), b) in d.iter_mut().zip(a.iter()).zip(b.iter()) {
-                        *d = if a > b { *a } else { *b };
-                    }
-                } else {
-                    for ((d, a), b) in d.iter_mut().zip(a.iter()).zip(b.iter()) {
-                        *d = if a < b { *a } else { *b };
-                    }
-                }
-            }
-            let [o0, o1] = self.out.map(|o| o as usize * CHUNK);
-            let dst = &mut out[2 * m0..(2 * (m0 + n)).min(width)];
-            for (i, px) in dst.chunks_mut(2).enumerate() {
-                px[0] = s.slots[o0 + i];
-                if let Some(right) = px.get_mut(1) {
-                    *right = s.slots[o1 + i];
-                }
-            }
-        }
-    }
 }
 
-/// Per-thread buffers: the w padded, column-sorted input rows, the same split by parity, and
-/// the network's slots.
+/// Per-thread buffers: the w padded input rows of one output row, and the same split by
+/// parity and column-sorted.
 struct RowScratch {
-    /// Length of one parity half of a row: the pairs plus the window's reach past them.
+    /// Length of one parity half of a row: the pairs plus the farthest reach past them of any
+    /// window size (`EXTRA`), so that an AVX step reads the same span for every size.
     half: usize,
     cols: Vec<f32>,
     split: Vec<f32>,
-    slots: Vec<f32>,
 }
 
 impl RowScratch {
-    fn new(net: &MedianNetwork, width: usize) -> RowScratch {
-        let half = width.div_ceil(2) + net.w / 2;
+    fn new(w: usize, width: usize) -> RowScratch {
+        let half = width.div_ceil(2) + EXTRA;
         RowScratch {
             half,
-            cols: vec![0.0; 2 * net.w * half],
-            split: vec![0.0; 2 * net.w * half],
-            slots: vec![0.0; net.slots * CHUNK],
+            cols: vec![0.0; 2 * w * half],
+            split: vec![0.0; 2 * w * half],
         }
     }
+}
 
-    fn slots_as_chunks(&mut self) -> &mut [[f32; CHUNK]] {
-        self.slots.as_chunks_mut::<CHUNK>().0
+/// Fill `s.split` for output row `y`: the w clamped input rows, padded left and right with
+/// their edge pixels, split by parity (`split[p][r][m]` = padded row r's value 2m + p, so that
+/// lane i of a kernel, computing the pixels 2i and 2i + 1, reads consecutive values), each
+/// parity's columns sorted ascending.
+#[inline(always)]
+fn prepare(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
+    let (h, half) = (w / 2, s.half);
+    let width = src.len() / height;
+    for (r, padded) in s.cols.chunks_mut(2 * half).enumerate() {
+        let sy = (y + r).saturating_sub(h).min(height - 1);
+        let row = &src[sy * width..(sy + 1) * width];
+        padded[..h].fill(row[0]);
+        padded[h..h + width].copy_from_slice(row);
+        padded[h + width..].fill(row[width - 1]);
+    }
+    let (even, odd) = s.split.split_at_mut(w * half);
+    for ((padded, e), o) in s
+        .cols
+        .chunks(2 * half)
+        .zip(even.chunks_mut(half))
+        .zip(odd.chunks_mut(half))
+    {
+        for ((pair, e), o) in padded.chunks_exact(2).zip(e).zip(o) {
+            *e = pair[0];
+            *o = pair[1];
+        }
+    }
+    for parity in s.split.chunks_mut(w * half) {
+        sort_columns(parity, half, w);
     }
 }
 
@@ -379,6 +184,113 @@ fn sort_columns(rows: &mut [f32], len: usize, w: usize) {
                 *a = x.min(y);
                 *b = x.max(y);
             }
+        }
+    }
+}
+
+#[inline(always)]
+fn min1(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+#[inline(always)]
+fn max1(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The pairs `first..` of a prepared row, one at a time, into `out` (the whole output row).
+#[inline(always)]
+fn pairs_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
+    let (split, half) = (&s.split[..], s.half);
+    for m in first..out.len().div_ceil(2) {
+        // Rank r of window column c of pair m: padded column 2m + c.
+        macro_rules! leaf {
+            ($c:literal, $r:literal) => {
+                split[($c % 2 * w + $r) * half + m + $c / 2]
+            };
+        }
+        let [left, right] = match w {
+            3 => median_pair_3!(leaf, min1, max1),
+            5 => median_pair_5!(leaf, min1, max1),
+            _ => median_pair_7!(leaf, min1, max1),
+        };
+        out[2 * m] = left;
+        if let Some(px) = out.get_mut(2 * m + 1) {
+            *px = right;
+        }
+    }
+}
+
+/// Output row `y` with the scalar kernel.
+fn row_scalar(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
+    prepare(w, src, height, y, s);
+    pairs_scalar(w, s, 0, out);
+}
+
+/// Eight floats from the start of `v` (at least eight long).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn load8(v: &[f32]) -> __m256 {
+    let v: &[f32; LANES] = v[..LANES].try_into().expect("eight floats");
+    // SAFETY: `v` holds eight floats; the load is unaligned.
+    unsafe { _mm256_loadu_ps(v.as_ptr()) }
+}
+
+/// Output row `y` with the AVX kernel: eight pairs per step, the remaining pairs one at a time.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn row_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
+    prepare(w, src, height, y, s);
+    let full = out.len() / 2 / LANES * LANES;
+    match w {
+        3 => pairs_avx::<3>(s, full, out),
+        5 => pairs_avx::<5>(s, full, out),
+        _ => pairs_avx::<7>(s, full, out),
+    }
+    pairs_scalar(w, s, full, out);
+}
+
+/// The pairs `0..full` (a multiple of eight) of a prepared row with the `W`×`W` AVX kernel.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn pairs_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
+    let (split, half) = (&s.split[..], s.half);
+    for m0 in (0..full).step_by(LANES) {
+        // The values this step reads from each of the 2W sorted rows, as fixed-size arrays, so
+        // the kernel's loads need no bounds checks (unused entries repeat row 0).
+        let rows: [&[f32; REACH]; 14] = std::array::from_fn(|i| {
+            let start = if i < 2 * W { i * half + m0 } else { m0 };
+            split[start..start + REACH]
+                .try_into()
+                .expect("REACH floats")
+        });
+        // Rank r of window column c of the pairs m0..m0 + 8: padded columns 2m + c.
+        macro_rules! leaf {
+            ($c:literal, $r:literal) => {
+                load8(&rows[$c % 2 * W + $r][$c / 2..])
+            };
+        }
+        let [left, right] = match W {
+            3 => median_pair_3!(leaf, _mm256_min_ps, _mm256_max_ps),
+            5 => median_pair_5!(leaf, _mm256_min_ps, _mm256_max_ps),
+            _ => median_pair_7!(leaf, _mm256_min_ps, _mm256_max_ps),
+        };
+        // Interleave: lane i of `left` and `right` are the pixels 2(m0 + i) and 2(m0 + i) + 1.
+        let (lo, hi) = (
+            _mm256_unpacklo_ps(left, right),
+            _mm256_unpackhi_ps(left, right),
+        );
+        let dst: &mut [f32; 2 * LANES] = (&mut out[2 * m0..2 * (m0 + LANES)])
+            .try_into()
+            .expect("sixteen pixels");
+        // SAFETY: `dst` holds sixteen floats; the stores are unaligned.
+        unsafe {
+            _mm256_storeu_ps(dst.as_mut_ptr(), _mm256_permute2f128_ps::<0x20>(lo, hi));
+            _mm256_storeu_ps(
+                dst.as_mut_ptr().add(LANES),
+                _mm256_permute2f128_ps::<0x31>(lo, hi),
+            );
         }
     }
 }
@@ -409,6 +321,7 @@ pub fn median_reference(src: &[f32], width: usize, height: usize, w: usize) -> V
 
 #[cfg(test)]
 mod tests {
+    use super::super::median_net::{Network, Value};
     use super::*;
     use crate::rng::mix64;
 
@@ -426,30 +339,106 @@ mod tests {
             .collect()
     }
 
+    /// Every kernel this CPU runs (both on the CI machine, which has AVX).
+    fn kernels() -> Vec<Kernel> {
+        let mut k = vec![Kernel::Scalar];
+        if Kernel::detect() != Kernel::Scalar {
+            k.push(Kernel::detect());
+        }
+        k
+    }
+
     #[test]
-    fn network_matches_brute_force() {
+    fn kernels_match_brute_force() {
         for w in [3, 5, 7] {
             let net = MedianNetwork::new(w);
-            for (width, height) in [(1, 1), (2, 3), (9, 4), (130, 11), (257, 3)] {
+            // Widths below, at and past one AVX step of 16 pixels, odd and even.
+            for (width, height) in [
+                (1, 1),
+                (2, 3),
+                (9, 4),
+                (16, 5),
+                (33, 7),
+                (130, 11),
+                (257, 3),
+            ] {
                 let img = noise_image(width, height, (w * 1000 + width) as u64);
-                assert_eq!(
-                    net.apply(&img, width, height),
-                    median_reference(&img, width, height, w),
-                    "w={w} {width}x{height}"
-                );
+                let want = median_reference(&img, width, height, w);
+                for k in kernels() {
+                    assert_eq!(
+                        net.apply_with(&img, width, height, k, false),
+                        want,
+                        "w={w} {width}x{height} {k:?}"
+                    );
+                }
             }
         }
     }
 
     #[test]
-    fn network_is_small() {
+    fn abs_diff_is_the_distance_to_the_median() {
+        let (width, height) = (37, 6);
+        let img = noise_image(width, height, 9);
+        let net = MedianNetwork::new(5);
+        let med = median_reference(&img, width, height, 5);
+        let want: Vec<f32> = img.iter().zip(&med).map(|(y, m)| (y - m).abs()).collect();
+        assert_eq!(net.abs_diff(&img, width, height), want);
+    }
+
+    #[test]
+    fn kernels_agree_on_zeros_and_infinities() {
+        // Signed zeros and ±∞ among ordinary values: the kernels pick the same bits.
+        let (width, height) = (45, 9);
+        let img: Vec<f32> = noise_image(width, height, 5)
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| match i % 5 {
+                0 => -0.0,
+                1 => 0.0,
+                2 if i % 3 == 0 => f32::INFINITY,
+                3 if i % 3 == 0 => f32::NEG_INFINITY,
+                _ => v,
+            })
+            .collect();
+        for w in [3, 5, 7] {
+            let net = MedianNetwork::new(w);
+            let bits = |k| -> Vec<u32> {
+                net.apply_with(&img, width, height, k, false)
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect()
+            };
+            let want = bits(Kernel::Scalar);
+            for k in kernels() {
+                assert_eq!(bits(k), want, "w={w} {k:?}");
+            }
+            // And both are medians up to the sign of zero.
+            let reference = median_reference(&img, width, height, w);
+            assert!(
+                net.apply(&img, width, height)
+                    .iter()
+                    .zip(&reference)
+                    .all(|(a, b)| a == b)
+            );
+        }
+    }
+
+    #[test]
+    fn network_is_small_and_its_code_complete() {
         // The point of the pruning and the pairing: the merge phases of a 64-wire Batcher sort
         // have 391 comparators (782 min/max); one 7×7 window alone needs 372 of them, two
         // adjacent windows sharing six columns 184 per pixel.
-        let (n7, n5) = (
-            MedianNetwork::new(7).ops_per_pixel(),
-            MedianNetwork::new(5).ops_per_pixel(),
-        );
-        assert!(n7 <= 184.0 && n5 <= 80.0, "w=7: {n7}, w=5: {n5}");
+        for (w, most) in [(7, 184), (5, 80)] {
+            let net = Network::new(w);
+            let ops = net
+                .values
+                .iter()
+                .filter(|v| matches!(v, Value::MinMax { .. }))
+                .count();
+            assert!(ops <= 2 * most, "w={w}: {ops} operations per pair");
+            // The generated code defines every value once.
+            let code = net.rust_macro("m");
+            assert_eq!(code.matches("let v").count(), net.values.len(), "w={w}");
+        }
     }
 }

@@ -40,6 +40,8 @@ use rayon::prelude::*;
 /// Pixels per parallel part of the fill step: few parts, since each keeps a fill value per
 /// segment.
 const FILL_CHUNK: usize = 1 << 20;
+/// Pixels per parallel part of the per-pixel passes.
+const PIXEL_CHUNK: usize = 1 << 16;
 
 /// The parameters of every step; `Default` gives the documented defaults.
 #[derive(Clone, Debug)]
@@ -114,12 +116,7 @@ pub struct Mask {
 
 /// Step 1: the noise of the indirect luminance.
 pub fn noise(luminance: &[f32], width: usize, height: usize, window: usize) -> Vec<f32> {
-    let med = MedianNetwork::new(window).apply(luminance, width, height);
-    luminance
-        .par_iter()
-        .zip(med.par_iter())
-        .map(|(y, m)| (y - m).abs())
-        .collect()
+    MedianNetwork::new(window).abs_diff(luminance, width, height)
 }
 
 /// Step 2: sigmoid weights of the top fraction; returns (weights, t, m).
@@ -143,40 +140,115 @@ pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
     (w, t, m)
 }
 
-/// Each segment's median and mean noise, for the spike gate.
-fn segment_noise(noise: &[f32], seg: &Segments) -> Vec<(f32, f64)> {
-    let mut offsets = vec![0usize; seg.count + 1];
-    for &l in &seg.labels {
-        offsets[l as usize + 1] += 1;
-    }
-    for i in 0..seg.count {
-        offsets[i + 1] += offsets[i];
-    }
-    let mut grouped = vec![0.0f32; noise.len()];
-    let mut cursor = offsets.clone();
-    for (&l, &n) in seg.labels.iter().zip(noise) {
-        grouped[cursor[l as usize]] = n;
-        cursor[l as usize] += 1;
-    }
-    let mut parts = Vec::with_capacity(seg.count);
-    let mut rest = grouped.as_mut_slice();
-    for i in 0..seg.count {
-        let (part, tail) = rest.split_at_mut(offsets[i + 1] - offsets[i]);
-        parts.push(part);
-        rest = tail;
-    }
-    parts
-        .into_par_iter()
-        .map(|p| {
-            // Summed in raster order before the selection reorders the part: deterministic.
-            let mean = p.iter().map(|&n| n as f64).sum::<f64>() / p.len() as f64;
-            let mid = (p.len() - 1) / 2;
-            (
-                *p.select_nth_unstable_by(mid, |a, b| b.total_cmp(a)).1,
-                mean,
-            )
+/// The spike gate (module docs): a weight stays only where the noise reaches `floor` and
+/// `contrast` times its segment's median noise, and only in a heavy-tailed segment (mean noise
+/// ≥ `tail` × median). The floor needs no median and goes first; only the segments that still
+/// hold a weight then need their median and mean (on a clean image few or none).
+fn spike_gate(
+    noise: &[f32],
+    weight: &mut [f32],
+    seg: &Segments,
+    contrast: f32,
+    tail: f32,
+    floor: f32,
+) {
+    // A few parts per thread (so a thread slowed by other work can be relieved), each with
+    // per-segment state for the segments it meets.
+    let chunk = noise
+        .len()
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(1);
+    let held: Vec<Vec<u32>> = weight
+        .par_chunks_mut(chunk)
+        .zip(noise.par_chunks(chunk))
+        .zip(seg.labels.par_chunks(chunk))
+        .map(|((weight, noise), labels)| {
+            let mut held = Vec::new();
+            for ((w, &n), &l) in weight.iter_mut().zip(noise).zip(labels) {
+                if n < floor {
+                    *w = 0.0;
+                } else if *w > 0.0 && held.last() != Some(&l) {
+                    held.push(l);
+                }
+            }
+            held
         })
-        .collect()
+        .collect();
+    // `need[segment]`: its index among the segments that need a median, or NONE.
+    const NONE: u32 = u32::MAX;
+    let mut need = vec![NONE; seg.count];
+    let mut needed = 0;
+    for &l in held.iter().flatten() {
+        if need[l as usize] == NONE {
+            need[l as usize] = needed;
+            needed += 1;
+        }
+    }
+    if needed == 0 {
+        return;
+    }
+    // Each part groups its pixels of the needed segments by segment (a counting sort), in
+    // parallel; each needed segment then gathers its pieces and selects its median.
+    // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear too), so
+    // its bit patterns sort as `f32::total_cmp` does and selection can compare integers.
+    let parts: Vec<(Vec<usize>, Vec<u32>)> = seg
+        .labels
+        .par_chunks(chunk)
+        .zip(noise.par_chunks(chunk))
+        .map(|(labels, noise)| {
+            let mut start = vec![0usize; needed as usize + 1];
+            for &l in labels {
+                let j = need[l as usize];
+                if j != NONE {
+                    start[j as usize + 1] += 1;
+                }
+            }
+            for j in 0..needed as usize {
+                start[j + 1] += start[j];
+            }
+            let mut grouped = vec![0u32; start[needed as usize]];
+            let mut cursor = start.clone();
+            for (&l, &n) in labels.iter().zip(noise) {
+                let j = need[l as usize];
+                if j != NONE {
+                    grouped[cursor[j as usize]] = n.to_bits();
+                    cursor[j as usize] += 1;
+                }
+            }
+            (start, grouped)
+        })
+        .collect();
+    // Per needed segment, the noise a weighted pixel must reach: none reaches it in a
+    // light-tailed segment.
+    let gate: Vec<f32> = (0..needed as usize)
+        .into_par_iter()
+        .map(|j| {
+            let mut v: Vec<u32> = parts
+                .iter()
+                .flat_map(|(start, grouped)| &grouped[start[j]..start[j + 1]])
+                .copied()
+                .collect();
+            // Summed in raster order (the parts are in order) before the selection reorders
+            // them: deterministic.
+            let mean = v.iter().map(|&b| f32::from_bits(b) as f64).sum::<f64>() / v.len() as f64;
+            let mid = (v.len() - 1) / 2;
+            let median = f32::from_bits(*v.select_nth_unstable_by(mid, |a, b| b.cmp(a)).1);
+            if mean >= tail as f64 * median as f64 {
+                contrast * median
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    weight
+        .par_iter_mut()
+        .zip(noise)
+        .zip(&seg.labels)
+        .for_each(|((w, &n), &l)| {
+            if *w > 0.0 && n < gate[need[l as usize] as usize] {
+                *w = 0.0;
+            }
+        });
 }
 
 /// All steps.
@@ -201,26 +273,7 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         let mean_y = input.luminance.par_iter().map(|&y| y as f64).sum::<f64>()
             / input.luminance.len() as f64;
         let floor = p.min_level * mean_y as f32;
-        // Per segment, the noise a pixel must reach: none reaches it in a light-tailed segment.
-        let gate: Vec<f32> = segment_noise(&noise, &segments)
-            .into_iter()
-            .map(|(median, mean)| {
-                if mean >= p.tail as f64 * median as f64 {
-                    (p.contrast * median).max(floor)
-                } else {
-                    f32::INFINITY
-                }
-            })
-            .collect();
-        weight
-            .par_iter_mut()
-            .zip(&noise)
-            .zip(&segments.labels)
-            .for_each(|((w, &n), &l)| {
-                if n < gate[l as usize] {
-                    *w = 0.0;
-                }
-            });
+        spike_gate(&noise, &mut weight, &segments, p.contrast, p.tail, floor);
     }
     let count = segments.count;
     let fill = segments
@@ -229,8 +282,11 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         .zip(weight.par_chunks(FILL_CHUNK))
         .map(|(labels, weights)| {
             let mut f = vec![0.0f32; count];
+            // Weights are sparse after step 2 (and the gate).
             for (&l, &w) in labels.iter().zip(weights) {
-                f[l as usize] = f[l as usize].max(w);
+                if w > 0.0 {
+                    f[l as usize] = f[l as usize].max(w);
+                }
             }
             f
         })
@@ -242,26 +298,31 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
             },
         );
     let complex_segments = fill.iter().filter(|&&f| f > 0.5).count();
-    let (filled, mut alpha): (Vec<f32>, Vec<f32>) = segments
-        .labels
-        .par_iter()
-        .map(|&l| {
-            let f = fill[l as usize];
-            (
-                f,
-                if f.max(p.epsilon) > 0.5 {
+    // Filled value and α in one pass, counting the complex pixels on the way.
+    let n = segments.labels.len();
+    let (mut filled, mut alpha) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let complex: usize = filled
+        .par_chunks_mut(PIXEL_CHUNK)
+        .zip(alpha.par_chunks_mut(PIXEL_CHUNK))
+        .zip(segments.labels.par_chunks(PIXEL_CHUNK))
+        .map(|((filled, alpha), labels)| {
+            let mut complex = 0;
+            for ((f, a), &l) in filled.iter_mut().zip(alpha.iter_mut()).zip(labels) {
+                *f = fill[l as usize];
+                *a = if f.max(p.epsilon) > 0.5 {
+                    complex += 1;
                     1.0
                 } else {
                     p.epsilon
-                },
-            )
+                };
+            }
+            complex
         })
-        .unzip();
-    let complex = alpha.par_iter().filter(|&&a| a == 1.0).count();
+        .sum();
     let complex_fraction = complex as f64 / alpha.len() as f64;
     let switched = complex_fraction > p.switch;
     if switched {
-        alpha.fill(1.0);
+        alpha.par_iter_mut().for_each(|a| *a = 1.0);
     }
     Mask {
         width,

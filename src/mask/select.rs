@@ -11,19 +11,23 @@ use rayon::prelude::*;
 const BINS: usize = 1 << 16;
 const PAR_CHUNK: usize = 1 << 18;
 
-/// Histogram of `key(bits)` over all values.
-fn histogram(values: &[f32], key: impl Fn(u32) -> usize + Sync) -> Vec<u64> {
+/// `count` histograms of `BINS` bins side by side, filled by `add(histograms, bits)` for each
+/// value. Rayon folds the chunks into one set per split of the work (about one per thread), not
+/// one per chunk: each set costs a zeroing and a merge of `count × BINS` counters.
+fn histograms(values: &[f32], count: usize, add: impl Fn(&mut [u64], u32) + Sync) -> Vec<u64> {
     values
         .par_chunks(PAR_CHUNK)
-        .map(|chunk| {
-            let mut h = vec![0u64; BINS];
-            for v in chunk {
-                h[key(v.to_bits())] += 1;
-            }
-            h
-        })
+        .fold(
+            || vec![0u64; count * BINS],
+            |mut h, chunk| {
+                for v in chunk {
+                    add(&mut h, v.to_bits());
+                }
+                h
+            },
+        )
         .reduce(
-            || vec![0u64; BINS],
+            || vec![0u64; count * BINS],
             |mut a, b| {
                 a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
                 a
@@ -54,29 +58,15 @@ pub fn nth_largest_many<const R: usize>(values: &[f32], ranks: [usize; R]) -> [f
             values.len()
         );
     }
-    let high = histogram(values, |b| (b >> 16) as usize);
+    let high = histograms(values, 1, |h, b| h[(b >> 16) as usize] += 1);
     let split = ranks.map(|r| bin_of_rank(&high, r as u64));
-    let low = values
-        .par_chunks(PAR_CHUNK)
-        .map(|chunk| {
-            let mut h = vec![0u64; R * BINS];
-            for v in chunk {
-                let b = v.to_bits();
-                for (r, &(hi_bin, _)) in split.iter().enumerate() {
-                    if (b >> 16) as usize == hi_bin {
-                        h[r * BINS + (b & 0xffff) as usize] += 1;
-                    }
-                }
+    let low = histograms(values, R, |h, b| {
+        for (r, &(hi_bin, _)) in split.iter().enumerate() {
+            if (b >> 16) as usize == hi_bin {
+                h[r * BINS + (b & 0xffff) as usize] += 1;
             }
-            h
-        })
-        .reduce(
-            || vec![0u64; R * BINS],
-            |mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                a
-            },
-        );
+        }
+    });
     let mut out = [0.0; R];
     for (r, &(hi_bin, rest)) in split.iter().enumerate() {
         let (lo_bin, _) = bin_of_rank(&low[r * BINS..(r + 1) * BINS], rest);

@@ -170,56 +170,43 @@ trait ObvhsTree: Sized {
     fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool;
 }
 
-impl ObvhsTree for CwBvh {
-    const NAME: &'static str = "obvhs-cwbvh";
-    fn build(tris: &[Triangle]) -> Self {
-        build_cwbvh_from_tris(
-            tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        )
-    }
-    fn order(&self) -> &[u32] {
-        &self.primitive_indices
-    }
-    fn closest(
-        &self,
-        r: obvhs::ray::Ray,
-        hit: &mut RayHit,
-        f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
-    ) -> bool {
-        self.ray_traverse(r, hit, f)
-    }
-    fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool {
-        self.ray_traverse_miss(r, f)
-    }
+/// Both obvhs trees have the same traversal API; only the type, name and builder differ.
+macro_rules! obvhs_tree {
+    ($tree:ty, $name:literal, $builder:path) => {
+        impl ObvhsTree for $tree {
+            const NAME: &'static str = $name;
+            fn build(tris: &[Triangle]) -> Self {
+                $builder(
+                    tris,
+                    BvhBuildParams::medium_build(),
+                    &mut Duration::default(),
+                )
+            }
+            fn order(&self) -> &[u32] {
+                &self.primitive_indices
+            }
+            fn closest(
+                &self,
+                r: obvhs::ray::Ray,
+                hit: &mut RayHit,
+                f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
+            ) -> bool {
+                self.ray_traverse(r, hit, f)
+            }
+            fn miss(
+                &self,
+                r: obvhs::ray::Ray,
+                f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
+            ) -> bool {
+                self.ray_traverse_miss(r, f)
+            }
+        }
+    };
 }
 
-/// The tree `accel` traversed itself before it folded it into a 4-wide one.
-impl ObvhsTree for Bvh2 {
-    const NAME: &'static str = "obvhs-bvh2";
-    fn build(tris: &[Triangle]) -> Self {
-        build_bvh2_from_tris(
-            tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        )
-    }
-    fn order(&self) -> &[u32] {
-        &self.primitive_indices
-    }
-    fn closest(
-        &self,
-        r: obvhs::ray::Ray,
-        hit: &mut RayHit,
-        f: impl FnMut(&obvhs::ray::Ray, usize) -> f32,
-    ) -> bool {
-        self.ray_traverse(r, hit, f)
-    }
-    fn miss(&self, r: obvhs::ray::Ray, f: impl FnMut(&obvhs::ray::Ray, usize) -> f32) -> bool {
-        self.ray_traverse_miss(r, f)
-    }
-}
+obvhs_tree!(CwBvh, "obvhs-cwbvh", build_cwbvh_from_tris);
+// The tree `accel` traversed itself before it folded it into a 4-wide one.
+obvhs_tree!(Bvh2, "obvhs-bvh2", build_bvh2_from_tris);
 
 struct Obvhs<T> {
     bvh: T,

@@ -277,6 +277,24 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
 mod tests {
     use super::*;
 
+    /// The segmentation of a hand-made G-buffer with the test parameters.
+    fn segment_of(
+        width: usize,
+        height: usize,
+        depth: &[f32],
+        normal: &[[f32; 3]],
+        matid: &[f32],
+    ) -> Segments {
+        let g = GBuffer {
+            width,
+            height,
+            depth,
+            normal,
+            matid,
+        };
+        segment(&g, &params())
+    }
+
     fn params() -> SegmentParams {
         SegmentParams {
             normal_tol: 0.15,
@@ -309,14 +327,7 @@ mod tests {
             std::f32::consts::FRAC_1_SQRT_2,
             -std::f32::consts::FRAC_1_SQRT_2,
         ];
-        let g = GBuffer {
-            width: w,
-            height: h,
-            depth: &depth,
-            normal: &normal,
-            matid: &matid,
-        };
-        let s = segment(&g, &params());
+        let s = segment_of(w, h, &depth, &normal, &matid);
         #[rustfmt::skip]
         let want = [
             0, 1, 0, 2, 2, 3,
@@ -364,14 +375,7 @@ mod tests {
 
     fn segment_planes(w: usize, h: usize, scene: &[([f32; 3], f32, f32)]) -> (Segments, Vec<f32>) {
         let (depth, normal, matid) = planes(w, h, scene);
-        let g = GBuffer {
-            width: w,
-            height: h,
-            depth: &depth,
-            normal: &normal,
-            matid: &matid,
-        };
-        (segment(&g, &params()), depth)
+        (segment_of(w, h, &depth, &normal, &matid), depth)
     }
 
     #[test]
@@ -410,14 +414,7 @@ mod tests {
         let depth: Vec<f32> = (0..w * h)
             .map(|i| if i % w < w / 2 { depth[i] } else { lower.0[i] })
             .collect();
-        let g = GBuffer {
-            width: w,
-            height: h,
-            depth: &depth,
-            normal: &normal,
-            matid: &matid,
-        };
-        let s = segment(&g, &params());
+        let s = segment_of(w, h, &depth, &normal, &matid);
         // Back wall, left floor, right floor.
         assert_eq!(s.count, 3, "{:?}", s.labels);
         let (left, right) = (s.labels[(h - 1) * w], s.labels[h * w - 1]);
@@ -439,14 +436,7 @@ mod tests {
         }
         let depth = vec![1.0f32; w * h];
         let normal = vec![[0.0, 1.0, 0.0]; w * h];
-        let g = GBuffer {
-            width: w,
-            height: h,
-            depth: &depth,
-            normal: &normal,
-            matid: &matid,
-        };
-        let s = segment(&g, &params());
+        let s = segment_of(w, h, &depth, &normal, &matid);
         assert_eq!(s.count, 2);
         assert!(
             s.labels

@@ -129,10 +129,10 @@ impl Block {
         e2: [Vec4::ZERO; 3],
     };
 
-    /// Möller–Trumbore on four triangles: the lane of the nearest hit with t in (0, t_max),
-    /// with its t and barycentrics of v1 and v2.
+    /// Möller–Trumbore on four triangles: a bit per lane hit with t in (0, t_max), and every
+    /// lane's t and barycentrics of v1 and v2.
     #[inline(always)]
-    fn intersect(&self, q: &Query, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+    fn lanes(&self, q: &Query, t_max: f32) -> (u32, Vec4, Vec4, Vec4) {
         let [dx, dy, dz] = q.d;
         let [e1x, e1y, e1z] = self.e1;
         let [e2x, e2y, e2z] = self.e2;
@@ -160,7 +160,13 @@ impl Block {
             & (u + v).cmple(Vec4::ONE)
             & t.cmpgt(Vec4::ZERO)
             & t.cmplt(Vec4::splat(t_max));
-        let mut mask = ok.bitmask();
+        (ok.bitmask(), t, u, v)
+    }
+
+    /// The lane of the nearest hit with t in (0, t_max), with its t and barycentrics.
+    #[inline(always)]
+    fn intersect(&self, q: &Query, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        let (mut mask, t, u, v) = self.lanes(q, t_max);
         let mut best: Option<(usize, f32)> = None;
         while mask != 0 {
             let lane = mask.trailing_zeros() as usize;
@@ -175,7 +181,7 @@ impl Block {
     /// Whether any lane hits with t in (0, t_max).
     #[inline(always)]
     fn hits(&self, q: &Query, t_max: f32) -> bool {
-        self.intersect(q, t_max).is_some()
+        self.lanes(q, t_max).0 != 0
     }
 }
 

@@ -250,12 +250,8 @@ impl Source {
     }
 
     fn rgb(&self, i: usize, names: [&str; 3]) -> Result<Rgb> {
-        let (r, g, b) = (
-            self.channel(i, names[0])?,
-            self.channel(i, names[1])?,
-            self.channel(i, names[2])?,
-        );
-        Ok((0..r.len()).map(|p| [r[p], g[p], b[p]]).collect())
+        let (label, img) = self.file(i);
+        img.require_rgb(names).map_err(|e| self.located(label, e))
     }
 
     fn rgb_spec(&self, i: usize, spec: &str, suffixes: [&str; 3]) -> Result<Rgb> {

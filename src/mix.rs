@@ -14,7 +14,8 @@ use crate::integrators::Method;
 use crate::layout::{Names, Preset, Source};
 use crate::mask::{MaskInput, MaskParams, build, mask_image};
 use crate::mmlt::{
-    DEFAULT_B_SPP, Mask, MmltSettings, check_memory, mcmc_image, render as render_mmlt,
+    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltSettings, check_memory, mcmc_image,
+    render as render_mmlt,
 };
 use crate::omc::{OmcSettings, aov_image};
 use crate::render::{Budget, Rendered, continue_passes};
@@ -130,8 +131,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         chains: s.chains,
         bootstrap: s.bootstrap,
         b_spp: DEFAULT_B_SPP,
-        large_step: 0.3,
-        sigma: 0.01,
+        large_step: DEFAULT_LARGE_STEP,
+        sigma: DEFAULT_SIGMA,
         kelemen_mis: false,
         quiet: s.quiet,
     };

@@ -49,19 +49,30 @@ fn reconstruction_error(src: &Source) -> f64 {
 fn presets_rebuild_each_renderers_own_image() {
     let cycles = reconstruction_error(&open(Preset::Cycles, &[CYCLES_64]));
     let luxcore = reconstruction_error(&open(Preset::Luxcore, &[LUXCORE]));
-    let mitsuba = reconstruction_error(&open(Preset::Mitsuba, &MITSUBA));
-    eprintln!(
-        "max |D + I − full| / peak: cycles {cycles:.2e}, luxcore {luxcore:.2e}, mitsuba {mitsuba:.2e}"
-    );
-    // Cycles: Combined = Emit + Env + Σ (Dir + Ind) × Col, to float rounding.
+    eprintln!("max |D + I − full| / peak: cycles {cycles:.2e}, luxcore {luxcore:.2e}");
+    // Cycles: Combined = Emit + Env + Σ (Dir + Ind) × Col, to float rounding. (Mitsuba's preset
+    // defines I as full − D, so its sum is the full image by construction: what can be wrong
+    // there is D, checked below.)
     assert!(cycles < 1e-6, "cycles {cycles:e}");
     assert!(luxcore < 1e-6, "luxcore {luxcore:e}");
-    assert!(mitsuba < 1e-6, "mitsuba {mitsuba:e}");
-    // The direct part is a real share of the image, not all of it nor nothing.
-    let src = open(Preset::Cycles, &[CYCLES_64]);
+    // The direct part is a real share of the image, not all of it nor nothing: for Mitsuba this
+    // is what says the max_depth=2 file is the direct light of the same scene.
     let sum = |v: Vec<[f32; 3]>| v.iter().flatten().map(|x| *x as f64).sum::<f64>();
-    let share = sum(src.direct().unwrap()) / sum(src.full().unwrap());
-    assert!((0.3..0.95).contains(&share), "direct share {share}");
+    let [cycles, mitsuba] = [
+        open(Preset::Cycles, &[CYCLES_64]),
+        open(Preset::Mitsuba, &MITSUBA),
+    ]
+    .map(|src| sum(src.direct().unwrap()) / sum(src.full().unwrap()));
+    eprintln!("direct share: cycles {cycles:.3}, mitsuba {mitsuba:.3}");
+    assert!(
+        (0.3..0.95).contains(&cycles),
+        "cycles direct share {cycles}"
+    );
+    // Measured 0.718 and 0.717: the two renderers split the same scene's light alike.
+    assert!(
+        (mitsuba - cycles).abs() < 0.03,
+        "mitsuba direct share {mitsuba} vs cycles {cycles}"
+    );
 }
 
 fn alpha(path: &Path) -> Vec<bool> {

@@ -127,16 +127,21 @@ def main():
     section = "\n".join(lines) + "\n"
     print(section)
     if a.update:
-        text = open(a.update).read() if os.path.exists(a.update) else "# Benchmarks\n"
-        start = text.find(TITLE)
-        if start >= 0:
-            end = text.find("\n## ", start + len(TITLE))
-            text = text[:start] + section + ("" if end < 0 else text[end:])
-        else:
-            text = text.rstrip("\n") + "\n\n" + section
-        with open(a.update, "w") as f:
-            f.write(text)
+        update_section(a.update, TITLE, section)
 
+
+def update_section(path, title, section):
+    """Replace the Markdown section starting with `title` in `path` (up to the next `## `), or
+    append it; shared with the other benchmark scripts that write BENCHMARKS.md."""
+    text = open(path).read() if os.path.exists(path) else "# Benchmarks\n"
+    start = text.find(title)
+    if start >= 0:
+        end = text.find("\n## ", start + len(title))
+        text = text[:start] + section + ("" if end < 0 else text[end:])
+    else:
+        text = text.rstrip("\n") + "\n\n" + section
+    with open(path, "w") as f:
+        f.write(text)
 
 if __name__ == "__main__":
     main()

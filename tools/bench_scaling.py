@@ -24,27 +24,18 @@ import datetime
 import json
 import os
 import platform
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_pt import children_cpu, exr_float, update_section  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "fixtures/scenes/cornell-box.json")
 TITLE = "## Scaling: threads, pixels, samples, and BPT/MMLT against PT"
 BIN = os.path.join(ROOT, "target/release")
-
-
-def children_cpu():
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
-def header(path, name):
-    import OpenImageIO as oiio
-
-    return float(oiio.ImageInput.open(path).spec().getattribute(name))
 
 
 def render(tmp, tool, scene, args, seed, key):
@@ -56,7 +47,7 @@ def render(tmp, tool, scene, args, seed, key):
     if done.returncode != 0:
         sys.exit(f"bench_scaling.py: {' '.join(cmd)} failed:\n{done.stderr.strip()}")
     cpu = children_cpu() - c
-    secs = header(out, key)
+    secs = exr_float(out, key)
     os.remove(out)
     return secs, cpu
 
@@ -162,20 +153,7 @@ def main():
     text = "\n".join(intro + lines) + "\n"
     print(text)
     if a.update:
-        update(a.update, text)
-
-
-def update(path, text):
-    with open(path) as f:
-        doc = f.read()
-    start = doc.find(TITLE)
-    if start < 0:
-        doc = doc.rstrip("\n") + "\n\n" + text
-    else:
-        end = doc.find("\n## ", start + len(TITLE))
-        doc = doc[:start] + text + (doc[end + 1 :] if end >= 0 else "")
-    with open(path, "w") as f:
-        f.write(doc)
+        update_section(a.update, TITLE, text)
 
 
 if __name__ == "__main__":

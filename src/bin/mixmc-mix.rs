@@ -2,7 +2,9 @@
 //! snapshot, MMLT weighted by the mask, and eq. (2), in one process at a time budget.
 
 use clap::Parser;
-use mixmc::cli::{init_threads, main_with, max_depth, partial_note, render_exit};
+use mixmc::cli::{
+    COMMAND_ATTR, command_line, init_threads, main_with, max_depth, partial_note, render_exit,
+};
 use mixmc::error::Error;
 use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
@@ -93,6 +95,7 @@ fn main() -> ExitCode {
             ));
         }
         let scene = Scene::load(&args.scene)?;
+        scene.print_warnings(TOOL);
         let settings = MixSettings {
             omc: args.omc,
             seconds: args.time,
@@ -115,7 +118,8 @@ fn main() -> ExitCode {
         }
         mixmc::signal::install();
         let dir = args.keep.clone().unwrap_or_default();
-        let m = mix(&scene, &settings, &dir)?;
+        let mut m = mix(&scene, &settings, &dir)?;
+        m.image.set_text(COMMAND_ATTR, command_line());
         for w in &m.warnings {
             eprintln!(
                 "{TOOL}: {}: warning: the OMC snapshot: {w}",

@@ -5,7 +5,10 @@ use clap::Parser;
 use mixmc::Error;
 use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note, render_exit};
 use mixmc::film::write_beauty_png;
-use mixmc::mmlt::{DEFAULT_B_SPP, Mask, MmltSettings, check_memory, mcmc_image, render};
+use mixmc::mmlt::{
+    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltSettings, check_memory, mcmc_image,
+    render,
+};
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
 use std::path::PathBuf;
@@ -33,10 +36,10 @@ struct Args {
     #[arg(long, default_value_t = 256)]
     chains: usize,
     /// Probability of a large step (an independent uniform sample).
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = DEFAULT_LARGE_STEP)]
     large_step: f32,
     /// Standard deviation of a small step in primary sample space.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = DEFAULT_SIGMA)]
     sigma: f32,
     /// Bootstrap samples per rendered depth, for b and the chains' starting states.
     #[arg(long, default_value_t = 100_000)]

@@ -195,7 +195,7 @@ fn main() -> ExitCode {
             .map_err(|e| Error::in_file(&args.output, e.to_string()))?;
         mixmc::signal::install();
         let res = run(&plan, args.quiet)?;
-        let command = std::env::args().collect::<Vec<_>>().join(" ");
+        let command = mixmc::cli::command_line();
         write_outputs(&res, &args.output, &command)?;
         println!(
             "{}: {} renders of {} scenes; report.md, results.csv, charts/, crops/{}",

@@ -5,6 +5,7 @@ pub mod bidir;
 pub mod pt;
 
 use crate::film::Film;
+use crate::math::Rgb;
 use crate::scene::Scene;
 use bidir::Strategies;
 
@@ -60,3 +61,13 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 
 /// Russian roulette starts after this many scattering vertices (Mitsuba's `rr_depth`).
 pub const RR_DEPTH: u32 = 5;
+
+/// Russian roulette, the same rule for every random walk: survive with q = the throughput's
+/// largest component relative to the walk's start (a light path starts at Le/pdf), times the η²
+/// gathered through refractions (so paths inside glass are not killed for the radiance
+/// scaling), at most 0.95. Returns q, by which the survivor's throughput is divided, or None.
+#[inline]
+pub fn roulette(beta: Rgb, beta_start: f32, eta_scale: f32, u: f32) -> Option<f32> {
+    let q = (beta.max_element() / beta_start * eta_scale).min(0.95);
+    (u < q).then_some(q)
+}

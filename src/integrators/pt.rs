@@ -1,6 +1,6 @@
 //! Path tracing with next-event estimation, combined with BSDF sampling by the power heuristic.
 
-use super::{RR_DEPTH, power_heuristic};
+use super::{RR_DEPTH, power_heuristic, roulette};
 use crate::bsdf::Mode;
 use crate::film::Film;
 use crate::math::{Rgb, Vec3};
@@ -104,10 +104,9 @@ pub fn radiance(
         prev_pdf = s.pdf;
         prev_delta = s.delta;
         if depth >= RR_DEPTH {
-            let q = (beta.max_element() * eta_scale).min(0.95);
-            if rng.next_1d() >= q {
+            let Some(q) = roulette(beta, 1.0, eta_scale, rng.next_1d()) else {
                 break;
-            }
+            };
             beta /= q;
         }
         o = scene.offset(hit.p, hit.n, s.wi);

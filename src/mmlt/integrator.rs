@@ -100,6 +100,10 @@ impl Mask {
 
 /// BPT passes per pixel that estimate the normalisation b by default.
 pub const DEFAULT_B_SPP: u64 = 32;
+/// Default probability of a large step (pbrt-v3's MLT default).
+pub const DEFAULT_LARGE_STEP: f32 = 0.3;
+/// Default standard deviation of a small step in primary sample space (pbrt-v3's).
+pub const DEFAULT_SIGMA: f32 = 0.01;
 
 /// Refuse a render whose buffers cannot fit in memory, before anything is rendered: per pixel,
 /// one f64 RGB sum per rendered depth (24 B each) plus the OMC-like rest (the round's splats, the

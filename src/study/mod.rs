@@ -14,7 +14,9 @@ use crate::integrators::Method;
 use crate::mask::MaskParams;
 use crate::metrics::{Scores, scores};
 use crate::mix::{MixSettings, Split, mix};
-use crate::mmlt::{DEFAULT_B_SPP, MmltSettings, render as render_mmlt};
+use crate::mmlt::{
+    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, MmltSettings, render as render_mmlt,
+};
 use crate::omc::{OmcSettings, render as render_omc};
 use crate::progress::Progress;
 use crate::render::Budget;
@@ -179,7 +181,7 @@ fn load(plan: &Plan, name: &str) -> Result<Loaded> {
     Ok(Loaded {
         name: name.to_string(),
         reference: reference
-            .require_rgb(["R", "G", "B"])
+            .require_finite_rgb(["R", "G", "B"])
             .map_err(|e| e.with_file(&ref_path))?,
         scene,
     })
@@ -240,8 +242,8 @@ fn render_one(
                     chains: 256,
                     bootstrap: plan.bootstrap,
                     b_spp: DEFAULT_B_SPP,
-                    large_step: 0.3,
-                    sigma: 0.01,
+                    large_step: DEFAULT_LARGE_STEP,
+                    sigma: DEFAULT_SIGMA,
                     kelemen_mis: method == StudyMethod::Kelemen,
                     quiet: true,
                 },

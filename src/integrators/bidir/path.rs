@@ -3,7 +3,7 @@
 //! (s, t) connection can be weighted against all other strategies (Veach's thesis, ch. 10).
 
 use crate::bsdf::Mode;
-use crate::integrators::RR_DEPTH;
+use crate::integrators::{self, RR_DEPTH};
 use crate::lights::LightSample;
 use crate::math::{INV_PI, Rgb, Vec3, cosine_hemisphere};
 use crate::rng::Sampler;
@@ -159,9 +159,6 @@ pub fn random_walk(
         mode,
         roulette,
     } = start;
-    // Roulette compares the throughput with the walk's start (a light path starts at Le/pdf),
-    // and counts η² through refractions as the path tracer does, so it does not kill paths
-    // inside glass.
     let beta_start = beta.max_element();
     let mut eta_scale = 1.0f32;
     let mut o = {
@@ -218,10 +215,10 @@ pub fn random_walk(
         // that sum to one over the strategies stay unbiased, and 1/q is in `beta`.
         // `path` holds n − 1 surface vertices after its camera or light vertex.
         if roulette && n > RR_DEPTH as usize {
-            let q = (beta.max_element() / beta_start * eta_scale).min(0.95);
-            if sampler.next_1d() >= q {
+            let Some(q) = integrators::roulette(beta, beta_start, eta_scale, sampler.next_1d())
+            else {
                 break;
-            }
+            };
             beta /= q;
         }
         pdf = pdf_fwd_sa;

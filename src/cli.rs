@@ -24,6 +24,16 @@ pub fn main_with(tool: &str, run: impl FnOnce() -> Result<ExitCode>) -> ExitCode
     }
 }
 
+/// `--switch` (complex share above which the mix is MCMC only) for every tool that takes it:
+/// 0 would switch on any one complex pixel, so the share must be positive.
+pub fn check_switch(switch: f64) -> Result<()> {
+    if switch > 0.0 && switch <= 1.0 {
+        Ok(())
+    } else {
+        Err(Error::new(format!("--switch {switch} must be in (0, 1]")))
+    }
+}
+
 /// Header key of the command line that made a file (provenance: a reference must say how it
 /// was rendered, and the file is the only thing that travels with it).
 pub const COMMAND_ATTR: &str = "mixmc.command";

@@ -4,7 +4,6 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, Options, composite};
-use mixmc::error::Error;
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
 use mixmc::layout::LightArgs;
@@ -47,12 +46,7 @@ struct Args {
 fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
-        if !(0.0..=1.0).contains(&args.switch) {
-            return Err(Error::new(format!(
-                "--switch {} must lie in [0, 1]",
-                args.switch
-            )));
-        }
+        mixmc::cli::check_switch(args.switch)?;
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;

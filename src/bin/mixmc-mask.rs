@@ -109,10 +109,7 @@ impl Args {
             self.epsilon > 0.0 && self.epsilon < 0.5,
             "--epsilon must be in (0, 0.5)",
         )?;
-        check(
-            self.switch > 0.0 && self.switch <= 1.0,
-            "--switch must be in (0, 1]",
-        )?;
+        mixmc::cli::check_switch(self.switch)?;
         check(
             self.contrast >= 0.0 && self.min_level >= 0.0 && self.tail >= 0.0,
             "--contrast, --min-level and --tail must not be negative",

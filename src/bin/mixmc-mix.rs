@@ -3,7 +3,8 @@
 
 use clap::Parser;
 use mixmc::cli::{
-    COMMAND_ATTR, command_line, init_threads, main_with, max_depth, partial_note, render_exit,
+    COMMAND_ATTR, check_switch, command_line, init_threads, main_with, max_depth, partial_note,
+    render_exit,
 };
 use mixmc::error::Error;
 use mixmc::film::write_beauty_png;
@@ -83,12 +84,7 @@ fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
         init_threads(args.threads)?;
-        if !(args.switch > 0.0 && args.switch <= 1.0) {
-            return Err(Error::new(format!(
-                "--switch {} must be in (0, 1]",
-                args.switch
-            )));
-        }
+        check_switch(args.switch)?;
         if args.mask_spp == 0 || args.chains == 0 || args.bootstrap == 0 {
             return Err(Error::new(
                 "--mask-spp, --chains and --bootstrap must be at least 1",

@@ -69,13 +69,14 @@ fn bsdfs(c: &mut Criterion) {
             })
         });
         if !bsdf.is_delta() {
-            g.bench_function(format!("eval+pdf/{name}"), |b| {
+            g.bench_function(format!("evaluate/{name}"), |b| {
                 b.iter(|| {
                     inputs
                         .windows(2)
                         .map(|w| {
                             let (wo, wi) = (black_box(w[0].0), w[1].0);
-                            bsdf.eval(n, wo, wi).max_element() + bsdf.pdf(n, wo, wi)
+                            let e = bsdf.evaluate(n, wo, wi);
+                            e.f.max_element() + e.pdf + e.pdf_rev
                         })
                         .sum::<f32>()
                 })

@@ -41,9 +41,28 @@ pub struct BsdfSample {
     pub wi: Vec3,
     pub f: Rgb,
     pub pdf: f32,
+    /// Density of sampling `wo` given `wi` (0 for delta lobes): the reverse density a
+    /// bidirectional walk stores at each vertex.
+    pub pdf_rev: f32,
     pub delta: bool,
     /// Relative index crossed (η_t/η_i of a refraction, 1 otherwise).
     pub eta: f32,
+}
+
+/// `Bsdf::evaluate`'s result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evaluated {
+    pub f: Rgb,
+    pub pdf: f32,
+    pub pdf_rev: f32,
+}
+
+impl Evaluated {
+    pub const ZERO: Evaluated = Evaluated {
+        f: Rgb::ZERO,
+        pdf: 0.0,
+        pdf_rev: 0.0,
+    };
 }
 
 impl BsdfSample {
@@ -68,39 +87,33 @@ impl Bsdf {
         }
     }
 
-    /// `f(wo, wi)` (no cosine); zero for delta lobes.
-    pub fn eval(&self, ng: Vec3, wo: Vec3, wi: Vec3) -> Rgb {
+    /// `f(wo, wi)` (no cosine) and the solid-angle densities of sampling `wi` given `wo`
+    /// (`pdf`) and `wo` given `wi` (`pdf_rev`), from one local frame: a bidirectional connection
+    /// needs all three at each of its ends, next-event estimation the first two. Zero for delta
+    /// lobes.
+    pub fn evaluate(&self, ng: Vec3, wo: Vec3, wi: Vec3) -> Evaluated {
         let frame = Frame::new(ng);
         let (o, i) = opaque_local(&frame, wo, wi);
         if o.z <= 0.0 || i.z <= 0.0 {
-            return Rgb::ZERO;
+            return Evaluated::ZERO;
         }
         match *self {
-            Bsdf::Diffuse { albedo } => albedo * INV_PI,
+            Bsdf::Diffuse { albedo } => Evaluated {
+                f: albedo * INV_PI,
+                pdf: i.z * INV_PI,
+                pdf_rev: o.z * INV_PI,
+            },
             Bsdf::Glossy { reflectance, alpha } => {
                 let h = (o + i).normalize();
-                reflectance
-                    * (ggx_d(h, alpha) * smith_g1(o, h, alpha) * smith_g1(i, h, alpha)
-                        / (4.0 * o.z * i.z))
+                let d = ggx_d(h, alpha);
+                let (g1o, g1i) = (smith_g1(o, h, alpha), smith_g1(i, h, alpha));
+                Evaluated {
+                    f: reflectance * (d * g1o * g1i / (4.0 * o.z * i.z)),
+                    pdf: g1o * d / (4.0 * o.z),
+                    pdf_rev: g1i * d / (4.0 * i.z),
+                }
             }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Rgb::ZERO,
-        }
-    }
-
-    /// Solid-angle density of sampling `wi` given `wo`; zero for delta lobes.
-    pub fn pdf(&self, ng: Vec3, wo: Vec3, wi: Vec3) -> f32 {
-        let frame = Frame::new(ng);
-        let (o, i) = opaque_local(&frame, wo, wi);
-        if o.z <= 0.0 || i.z <= 0.0 {
-            return 0.0;
-        }
-        match *self {
-            Bsdf::Diffuse { .. } => i.z * INV_PI,
-            Bsdf::Glossy { alpha, .. } => {
-                let h = (o + i).normalize();
-                smith_g1(o, h, alpha) * ggx_d(h, alpha) / (4.0 * o.z)
-            }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => 0.0,
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Evaluated::ZERO,
         }
     }
 
@@ -125,6 +138,7 @@ impl Bsdf {
                     wi: to_world(i),
                     f: albedo * INV_PI,
                     pdf: i.z * INV_PI,
+                    pdf_rev: o.z * INV_PI,
                     delta: false,
                     eta: 1.0,
                 })
@@ -135,6 +149,7 @@ impl Bsdf {
                     wi: to_world(i),
                     f: reflectance / i.z,
                     pdf: 1.0,
+                    pdf_rev: 0.0,
                     delta: true,
                     eta: 1.0,
                 })
@@ -146,9 +161,9 @@ impl Bsdf {
                     return None;
                 }
                 let d = ggx_d(h, alpha);
-                let g1o = smith_g1(o, h, alpha);
+                let (g1o, g1i) = (smith_g1(o, h, alpha), smith_g1(i, h, alpha));
                 let pdf = g1o * d / (4.0 * o.z);
-                let f = reflectance * (d * g1o * smith_g1(i, h, alpha) / (4.0 * o.z * i.z));
+                let f = reflectance * (d * g1o * g1i / (4.0 * o.z * i.z));
                 if pdf <= 0.0 || !pdf.is_finite() {
                     return None;
                 }
@@ -156,6 +171,7 @@ impl Bsdf {
                     wi: to_world(i),
                     f,
                     pdf,
+                    pdf_rev: g1i * d / (4.0 * i.z),
                     delta: false,
                     eta: 1.0,
                 })
@@ -171,6 +187,7 @@ impl Bsdf {
                         wi: frame.to_world(i),
                         f: Rgb::splat(fr / cos_o),
                         pdf: fr,
+                        pdf_rev: 0.0,
                         delta: true,
                         eta: 1.0,
                     })
@@ -186,6 +203,7 @@ impl Bsdf {
                         wi: frame.to_world(i).normalize(),
                         f,
                         pdf: 1.0 - fr,
+                        pdf_rev: 0.0,
                         delta: true,
                         eta: etap,
                     })
@@ -275,21 +293,27 @@ mod tests {
             if let Some(s) = b.sample(ng, wo, rng.next_2d(), rng.next_1d(), Mode::Radiance) {
                 alb += s.weight(ng);
                 if !s.delta {
-                    // eval and pdf must agree with what sample returned.
-                    let f = b.eval(ng, wo, s.wi);
+                    // evaluate must agree with what sample returned, both ways.
+                    let e = b.evaluate(ng, wo, s.wi);
                     assert!(
-                        (f - s.f).abs().max_element() <= 1e-3 * f.max_element().max(1.0),
-                        "{f} vs {}",
+                        (e.f - s.f).abs().max_element() <= 1e-3 * e.f.max_element().max(1.0),
+                        "{} vs {}",
+                        e.f,
                         s.f
                     );
-                    assert!((b.pdf(ng, wo, s.wi) - s.pdf).abs() <= 1e-3 * s.pdf.max(1.0));
+                    assert!((e.pdf - s.pdf).abs() <= 1e-3 * s.pdf.max(1.0));
+                    assert!((e.pdf_rev - s.pdf_rev).abs() <= 1e-3 * s.pdf_rev.max(1.0));
+                    // Reciprocity: swapping the directions swaps the densities.
+                    let r = b.evaluate(ng, s.wi, wo);
+                    assert!((r.pdf - e.pdf_rev).abs() <= 1e-4 * e.pdf_rev.max(1.0));
+                    assert!((r.f - e.f).abs().max_element() <= 1e-4 * e.f.max_element().max(1.0));
                 }
             }
             let u = rng.next_2d();
             let z = 1.0 - 2.0 * u.x;
             let r = (1.0 - z * z).max(0.0).sqrt();
             let w = Vec3::new(r * (2.0 * PI * u.y).cos(), r * (2.0 * PI * u.y).sin(), z);
-            mass += b.pdf(ng, wo, w) * 4.0 * PI;
+            mass += b.evaluate(ng, wo, w).pdf * 4.0 * PI;
         }
         (alb / n as f32, mass / n as f32)
     }
@@ -319,7 +343,7 @@ mod tests {
                 let ph = (j as f32 + 0.5) / (2 * n) as f32 * 2.0 * PI;
                 let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
                 let d_omega = th.sin() * (PI / 2.0 / n as f32) * (PI / n as f32);
-                sum += (b.eval(Vec3::Z, wo, wi).x * wi.z * d_omega) as f64;
+                sum += (b.evaluate(Vec3::Z, wo, wi).f.x * wi.z * d_omega) as f64;
             }
         }
         sum as f32

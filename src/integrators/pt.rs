@@ -81,13 +81,13 @@ pub fn radiance(
             let wi = to / dist2.sqrt();
             let cos_l = -wi.dot(ls.n);
             if cos_l > 0.0 {
-                let f = bsdf.eval(hit.n, wo, wi);
-                if f != Rgb::ZERO && scene.visible(hit.p, hit.n, ls.p, ls.n) {
+                let e = bsdf.evaluate(hit.n, wo, wi);
+                if e.f != Rgb::ZERO && scene.visible(hit.p, hit.n, ls.p, ls.n) {
                     let light_pdf = ls.pdf_area * dist2 / cos_l;
-                    let w = power_heuristic(light_pdf, bsdf.pdf(hit.n, wo, wi));
+                    let w = power_heuristic(light_pdf, e.pdf);
                     add(
                         depth,
-                        beta * f * ls.le * (wi.dot(hit.n).abs() * w / light_pdf),
+                        beta * e.f * ls.le * (wi.dot(hit.n).abs() * w / light_pdf),
                     );
                 }
             }

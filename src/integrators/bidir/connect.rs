@@ -4,7 +4,8 @@
 
 use super::Strategies;
 use super::path::{Kind, Vertex, emission_pdf};
-use crate::math::{Rgb, Vec3};
+use crate::bsdf::Evaluated;
+use crate::math::Rgb;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
@@ -30,89 +31,80 @@ pub fn connect(
     strategies: Strategies,
 ) -> Option<Connection> {
     debug_assert!(t >= 1 && t <= cam.len() && s <= light.len() && s + t >= 2);
-    let mut sampled: Option<Vertex> = None;
-    let mut raster = None;
-    let value = if s == 0 {
+    if s == 0 {
         let pt = &cam[t - 1];
         if pt.kind != Kind::Surface {
             return None;
         }
-        pt.beta * scene.le(pt.tri, pt.wo)
-    } else if t == 1 {
-        let qs = &light[s - 1];
-        if qs.delta {
+        let value = pt.beta * scene.le(pt.tri, pt.wo);
+        if value == Rgb::ZERO || !value.is_finite() {
             return None;
         }
-        let cam_p = scene.camera.position;
-        let to_cam = cam_p - qs.p;
-        let dist2 = to_cam.length_squared();
-        let w = to_cam / dist2.sqrt();
-        raster = Some(scene.camera.raster(-w)?);
-        let f = if s == 1 {
-            Rgb::splat((emission_pdf(qs.n, w) > 0.0) as u8 as f32)
-        } else {
-            eval_bsdf(scene, qs, w)
-        };
-        let cos_cam = (-w).dot(scene.camera.forward);
-        let v =
-            qs.beta * f * (w.dot(qs.n).abs() * scene.camera.importance(cos_cam) * cos_cam / dist2);
-        if v == Rgb::ZERO || !visible_from_camera(scene, qs) {
-            return None;
-        }
-        v
-    } else if s == 1 {
-        let pt = &cam[t - 1];
+        let weight = mis_weight(scene, light, cam, 0, t, None, strategies);
+        return weighted(value, weight, None);
+    }
+    let pt = &cam[t - 1];
+    // s = 1 samples the light point afresh (next-event estimation).
+    let l0;
+    let (qs, sampled) = if s == 1 && t > 1 {
         if pt.delta || pt.kind != Kind::Surface || scene.lights.is_empty() {
             return None;
         }
         let (u_sel, u) = (sampler.next_1d(), sampler.next_2d());
-        let ls = scene.sample_light(u_sel, u);
-        let l0 = Vertex::light(scene, &ls);
-        let d = l0.p - pt.p;
-        let dist2 = d.length_squared();
-        let w = d / dist2.sqrt();
-        if emission_pdf(l0.n, -w) <= 0.0 {
-            return None;
-        }
-        let g = w.dot(pt.n).abs() * w.dot(l0.n).abs() / dist2;
-        let v = pt.beta * eval_bsdf(scene, pt, w) * l0.beta * g;
-        if v == Rgb::ZERO || !scene.visible(pt.p, pt.n, l0.p, l0.n) {
-            return None;
-        }
-        sampled = Some(l0);
-        v
+        l0 = Vertex::light(scene, &scene.sample_light(u_sel, u));
+        (&l0, Some(&l0))
     } else {
-        let (qs, pt) = (&light[s - 1], &cam[t - 1]);
-        if qs.delta || pt.delta || pt.kind != Kind::Surface {
-            return None;
-        }
-        let d = qs.p - pt.p;
-        let dist2 = d.length_squared();
-        let w = d / dist2.sqrt();
+        (&light[s - 1], None)
+    };
+    if qs.delta || pt.delta || (t > 1 && pt.kind != Kind::Surface) {
+        return None;
+    }
+    let d = qs.p - pt.p;
+    let dist2 = d.length_squared();
+    let w = d / dist2.sqrt();
+    let ends = Ends {
+        cam: pt.towards(scene, w),
+        light: qs.towards(scene, -w),
+    };
+    let mut raster = None;
+    let value = if t == 1 {
+        // The camera's importance replaces f and its cosine at the camera end.
+        raster = Some(scene.camera.raster(w)?);
+        let cos_cam = w.dot(scene.camera.forward);
+        qs.beta
+            * ends.light.f
+            * (w.dot(qs.n).abs() * scene.camera.importance(cos_cam) * cos_cam / dist2)
+    } else {
         let g = w.dot(pt.n).abs() * w.dot(qs.n).abs() / dist2;
-        let v = qs.beta * eval_bsdf(scene, qs, -w) * g * eval_bsdf(scene, pt, w) * pt.beta;
-        if v == Rgb::ZERO || !scene.visible(pt.p, pt.n, qs.p, qs.n) {
-            return None;
-        }
-        v
+        qs.beta * ends.light.f * g * ends.cam.f * pt.beta
     };
     if value == Rgb::ZERO || !value.is_finite() {
         return None;
     }
-    let weight = mis_weight(scene, light, cam, s, t, sampled.as_ref(), strategies);
-    // A degenerate density (a grazing cosine of zero) must not poison a pixel with NaN forever.
-    if !weight.is_finite() {
+    let visible = if t == 1 {
+        visible_from_camera(scene, qs)
+    } else {
+        scene.visible(pt.p, pt.n, qs.p, qs.n)
+    };
+    if !visible {
         return None;
     }
-    Some(Connection {
+    let weight = mis_weight(scene, light, cam, s, t, Some((sampled, &ends)), strategies);
+    weighted(value, weight, raster)
+}
+
+fn weighted(value: Rgb, weight: f32, raster: Option<(f32, f32)>) -> Option<Connection> {
+    // A degenerate density (a grazing cosine of zero) must not poison a pixel with NaN forever.
+    weight.is_finite().then(|| Connection {
         value: value * weight,
         raster,
     })
 }
 
-/// f at a surface vertex towards `w`, having arrived along its sub-path.
-fn eval_bsdf(scene: &Scene, v: &Vertex, w: Vec3) -> Rgb {
-    scene.materials[v.material as usize].bsdf.eval(v.n, v.wo, w)
+/// A connection's two end vertices evaluated towards each other: f and both densities.
+pub struct Ends {
+    pub cam: Evaluated,
+    pub light: Evaluated,
 }
 
 fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
@@ -136,15 +128,18 @@ fn remap0(x: f32) -> f32 {
 /// have made the same path. The path is laid out camera first: x[i] for i < t from `cam`, then
 /// the light sub-path reversed. pf[i] is x[i]'s area density from the camera side, pl[i] from
 /// the light side; moving the connection one vertex multiplies the path density by pf/pl.
+/// `joined` (for s ≥ 1): the light vertex sampled afresh for s = 1, if any, and the two ends
+/// evaluated towards each other, whose densities are the ones the connection changes.
 pub fn mis_weight(
     scene: &Scene,
     light: &[Vertex],
     cam: &[Vertex],
     s: usize,
     t: usize,
-    sampled: Option<&Vertex>,
+    joined: Option<(Option<&Vertex>, &Ends)>,
     strategies: Strategies,
 ) -> f32 {
+    let sampled = joined.and_then(|(v, _)| v);
     let n = s + t;
     let vert = |i: usize| -> &Vertex {
         if i < t {
@@ -183,23 +178,25 @@ pub fn mis_weight(
     // The last vertex lies on a light: what matters there is the (non-delta) area emission.
     delta[n - 1] = false;
     let pt = vert(t - 1);
-    if s == 0 {
-        pl[t - 1] = scene.light_pdf_area(pt.tri);
-        if t >= 2 {
-            let prev = vert(t - 2);
-            pl[t - 2] = pt.to_area(emission_pdf(pt.n, (prev.p - pt.p).normalize()), prev);
+    match joined {
+        None => {
+            debug_assert_eq!(s, 0);
+            pl[t - 1] = scene.light_pdf_area(pt.tri);
+            if t >= 2 {
+                let prev = vert(t - 2);
+                pl[t - 2] = pt.to_area(emission_pdf(pt.n, (prev.p - pt.p).normalize()), prev);
+            }
         }
-    } else {
-        let qs = vert(t);
-        let pt_prev = (t >= 2).then(|| vert(t - 2));
-        let qs_prev = (s >= 2).then(|| vert(t + 1));
-        pf[t] = pt.to_area(pt.pdf_dir(scene, pt_prev, qs), qs);
-        pl[t - 1] = qs.to_area(qs.pdf_dir(scene, qs_prev, pt), pt);
-        if let Some(pp) = pt_prev {
-            pl[t - 2] = pt.to_area(pt.pdf_dir(scene, Some(qs), pp), pp);
-        }
-        if let Some(qp) = qs_prev {
-            pf[t + 1] = qs.to_area(qs.pdf_dir(scene, Some(pt), qp), qp);
+        Some((_, ends)) => {
+            let qs = vert(t);
+            pf[t] = pt.to_area(ends.cam.pdf, qs);
+            pl[t - 1] = qs.to_area(ends.light.pdf, pt);
+            if t >= 2 {
+                pl[t - 2] = pt.to_area(ends.cam.pdf_rev, vert(t - 2));
+            }
+            if s >= 2 {
+                pf[t + 1] = qs.to_area(ends.light.pdf_rev, vert(t + 1));
+            }
         }
     }
     let x1_delta = delta[1];
@@ -230,6 +227,7 @@ pub fn mis_weight(
 mod tests {
     use super::*;
     use crate::integrators::bidir::path::{camera_subpath, light_subpath};
+    use crate::math::Vec3;
     use crate::rng::Rng;
     use std::path::Path;
 
@@ -245,8 +243,7 @@ mod tests {
             if i > 0 {
                 v.wo = dir(i, i - 1);
                 let prev = &cam[i - 1];
-                let pp = if i >= 2 { Some(&cam[i - 2]) } else { None };
-                v.pdf_fwd = prev.to_area(prev.pdf_dir(scene, pp, &v), &v);
+                v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i - 1, i)).pdf, &v);
             }
             cam.push(v);
         }
@@ -261,8 +258,7 @@ mod tests {
             } else {
                 v.wo = dir(i, i + 1);
                 let prev = &light[k - 1];
-                let pp = if k >= 2 { Some(&light[k - 2]) } else { None };
-                v.pdf_fwd = prev.to_area(prev.pdf_dir(scene, pp, &v), &v);
+                v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i + 1, i)).pdf, &v);
             }
             light.push(v);
         }
@@ -270,7 +266,8 @@ mod tests {
         for side in [&mut cam, &mut light] {
             for j in 0..side.len().saturating_sub(2) {
                 let (a, b) = (side[j + 1], side[j + 2]);
-                side[j].pdf_rev = a.to_area(a.pdf_dir(scene, Some(&b), &side[j]), &side[j]);
+                let back = a.towards(scene, (b.p - a.p).normalize()).pdf_rev;
+                side[j].pdf_rev = a.to_area(back, &side[j]);
             }
         }
         (cam, light)
@@ -319,7 +316,17 @@ mod tests {
                                 continue;
                             }
                             let (c, l) = split(&scene, &xs, tp);
-                            sum += mis_weight(&scene, &l, &c, n - tp, tp, None, strategies) as f64;
+                            let ends = (n > tp).then(|| {
+                                let (pt, qs) = (&c[tp - 1], &l[n - tp - 1]);
+                                let w = (qs.p - pt.p).normalize();
+                                Ends {
+                                    cam: pt.towards(&scene, w),
+                                    light: qs.towards(&scene, -w),
+                                }
+                            });
+                            let joined = ends.as_ref().map(|e| (None, e));
+                            sum +=
+                                mis_weight(&scene, &l, &c, n - tp, tp, joined, strategies) as f64;
                         }
                         assert!(
                             (sum - 1.0).abs() < 1e-3,

@@ -2,7 +2,7 @@
 //! serves LT, IBPT, BPT and MMLT: each vertex keeps its forward and reverse area densities so any
 //! (s, t) connection can be weighted against all other strategies (Veach's thesis, ch. 10).
 
-use crate::bsdf::Mode;
+use crate::bsdf::{Evaluated, Mode};
 use crate::integrators::{self, RR_DEPTH};
 use crate::lights::LightSample;
 use crate::math::{INV_PI, Rgb, Vec3, cosine_hemisphere};
@@ -73,22 +73,29 @@ impl Vertex {
         self.kind != Kind::Camera
     }
 
-    /// Solid-angle density, at this vertex, of sampling the direction to `next` having arrived
-    /// from `prev` (its BSDF), or of emitting/importance towards `next` for end vertices.
-    pub fn pdf_dir(&self, scene: &Scene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
-        let w = (next.p - self.p).normalize();
+    /// This vertex as an end of a connection towards unit direction `w`: f and the
+    /// solid-angle densities of sampling `w` (`pdf`) and, arriving along `w`, of sampling the
+    /// way back to its own predecessor (`pdf_rev`). A light's f is 1 on its emitting side (its
+    /// emission is in `beta`); the camera's f is unused (connections to it use its importance)
+    /// and neither end vertex has a predecessor.
+    pub fn towards(&self, scene: &Scene, w: Vec3) -> Evaluated {
         match self.kind {
-            Kind::Camera => scene.camera.pdf_dir(w.dot(self.n)),
-            Kind::Light => emission_pdf(self.n, w),
-            Kind::Surface => {
-                let wo = match prev {
-                    Some(p) => (p.p - self.p).normalize(),
-                    None => self.wo,
-                };
-                scene.materials[self.material as usize]
-                    .bsdf
-                    .pdf(self.n, wo, w)
+            Kind::Camera => Evaluated {
+                f: Rgb::ZERO,
+                pdf: scene.camera.pdf_dir(w.dot(self.n)),
+                pdf_rev: 0.0,
+            },
+            Kind::Light => {
+                let pdf = emission_pdf(self.n, w);
+                Evaluated {
+                    f: Rgb::splat(f32::from(u8::from(pdf > 0.0))),
+                    pdf,
+                    pdf_rev: 0.0,
+                }
             }
+            Kind::Surface => scene.materials[self.material as usize]
+                .bsdf
+                .evaluate(self.n, self.wo, w),
         }
     }
 
@@ -197,16 +204,13 @@ pub fn random_walk(
             break;
         };
         beta *= s.weight(hit.n);
-        // Delta lobes have no density to compare; pbrt's convention stores 0 and remaps it to
-        // 1 in MIS ratios, where the Dirac factors cancel.
-        let (pdf_fwd_sa, pdf_rev_sa) = if s.delta {
-            (0.0, 0.0)
-        } else {
-            (s.pdf, material.bsdf.pdf(hit.n, s.wi, -d))
-        };
+        // Delta lobes have no density to compare; pbrt's convention stores 0 (as `sample` does
+        // for the reverse density) and remaps it to 1 in MIS ratios, where the Dirac factors
+        // cancel.
+        let pdf_fwd_sa = if s.delta { 0.0 } else { s.pdf };
         let n = path.len();
         let cur = path[n - 1];
-        path[n - 2].pdf_rev = cur.to_area(pdf_rev_sa, &path[n - 2]);
+        path[n - 2].pdf_rev = cur.to_area(s.pdf_rev, &path[n - 2]);
         if beta == Rgb::ZERO || !beta.is_finite() {
             break;
         }

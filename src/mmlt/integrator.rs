@@ -37,6 +37,11 @@ use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;
 
+/// Pixel bands into which each round's splats are sorted, so that they can be added in
+/// parallel (the work of a round's mutations is far more than of adding their splats, but the
+/// adds are random accesses into every depth's sums and, done serially, held back two threads).
+const SPLAT_BANDS: usize = 16;
+
 /// Key of the stratification offset used to pick chains' starting samples.
 const PICK_KEY: u64 = 0x4d4d_4c54_5049_434b;
 /// Key of the BPT passes that estimate b_d: not the numbers of an OMC render with the same seed,
@@ -255,19 +260,26 @@ struct Chain {
     accepted: u64,
     /// Mutations per round.
     quota: u64,
+    /// The last round's splats (pixel, weighted contribution) in order, one list per band of
+    /// `band_len` pixels; kept between rounds for their capacity.
+    splats: Vec<Vec<(u32, Rgb)>>,
 }
 
 impl Chain {
-    /// Run `quota` mutations, returning the splats (pixel, weighted contribution) in order.
+    /// Run `quota` mutations into `self.splats`, sorted into bands of `band_len` pixels.
     fn run(
         &mut self,
         scene: &Scene,
         alpha: Option<&[f32]>,
         s: &MmltSettings,
         b_d: f64,
-    ) -> Vec<(u32, Rgb)> {
+        band_len: usize,
+    ) {
         let mut scratch = Scratch::new(self.depth);
-        let mut splats = Vec::with_capacity(2 * self.quota as usize);
+        let splats = &mut self.splats;
+        splats.iter_mut().for_each(Vec::clear);
+        let mut splat =
+            |pixel: usize, value: Rgb| splats[pixel / band_len].push((pixel as u32, value));
         let p_large = s.large_step;
         let inv_b = (1.0 / b_d) as f32;
         for _ in 0..self.quota {
@@ -301,10 +313,10 @@ impl Chain {
                 )
             };
             if w_prop > 0.0 && proposal.y > 0.0 {
-                splats.push((proposal.pixel as u32, proposal.c * w_prop));
+                splat(proposal.pixel, proposal.c * w_prop);
             }
             if w_cur > 0.0 && cur.y > 0.0 {
-                splats.push((cur.pixel as u32, cur.c * w_cur));
+                splat(cur.pixel, cur.c * w_cur);
             }
             if self.sampler.accept_uniform() < a {
                 self.current = proposal;
@@ -314,7 +326,6 @@ impl Chain {
                 self.sampler.reject();
             }
         }
-        splats
     }
 }
 
@@ -347,6 +358,19 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
     }
     // Splat sums per depth: b_d, which scales them, is only final when the chains are done.
     let mut sums = vec![vec![[0.0f64; 3]; pixels]; depths.len()];
+    let band_len = pixels.div_ceil(SPLAT_BANDS).max(1);
+    for c in &mut chains {
+        c.splats = vec![Vec::new(); pixels.div_ceil(band_len)];
+    }
+    let mut bands: Vec<(usize, usize, &mut [[f64; 3]])> = sums
+        .iter_mut()
+        .enumerate()
+        .flat_map(|(slot, sum)| {
+            sum.chunks_mut(band_len)
+                .enumerate()
+                .map(move |(band, chunk)| (slot, band, chunk))
+        })
+        .collect();
     let progress = match s.budget {
         Budget::Passes(n) => Progress::new(n, "mmlt", "mutations/px", s.quiet),
         Budget::Seconds(t) => Progress::new((t * 10.0).ceil() as u64, "mmlt", "×0.1 s", s.quiet),
@@ -370,20 +394,22 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
                 break;
             }
         }
-        let splats: Vec<Vec<(u32, Rgb)>> = chains
+        chains
             .par_iter_mut()
-            .map(|c| c.run(scene, alpha, s, b_depth[c.slot]))
-            .collect();
-        // Applied in chain order: the image does not depend on the thread count.
-        for (c, list) in chains.iter().zip(&splats) {
-            let sum = &mut sums[c.slot];
-            for &(p, v) in list {
-                let acc = &mut sum[p as usize];
-                acc[0] += v.x as f64;
-                acc[1] += v.y as f64;
-                acc[2] += v.z as f64;
+            .for_each(|c| c.run(scene, alpha, s, b_depth[c.slot], band_len));
+        // Each band of each depth's sums takes its splats in chain order, bands in parallel:
+        // every pixel adds its splats in the same order whatever the thread count.
+        bands.par_iter_mut().for_each(|(slot, band, sum)| {
+            let base = *band * band_len;
+            for c in chains.iter().filter(|c| c.slot == *slot) {
+                for &(p, v) in &c.splats[*band] {
+                    let acc = &mut sum[p as usize - base];
+                    acc[0] += v.x as f64;
+                    acc[1] += v.y as f64;
+                    acc[2] += v.z as f64;
+                }
             }
-        }
+        });
         rounds += 1;
         progress.set(match s.budget {
             Budget::Passes(_) => rounds,
@@ -624,6 +650,7 @@ fn start_chains(
                 current,
                 accepted: 0,
                 quota,
+                splats: Vec::new(),
             }
         })
         .collect()

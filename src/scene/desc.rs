@@ -122,7 +122,7 @@ pub struct Rotation {
 #[derive(Deserialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ObjectDesc {
-    /// A parallelogram `origin + s·u + t·v`, s,t ∈ [0,1]; its front is `u × v`.
+    /// A parallelogram `origin + s·u + t·v`, s, t ∈ \[0, 1\]; its front is `u × v`.
     Quad {
         #[serde(deserialize_with = "finite3")]
         origin: V3,

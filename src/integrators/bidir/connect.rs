@@ -125,8 +125,8 @@ fn remap0(x: f32) -> f32 {
 }
 
 /// Balance-heuristic weight of strategy (s, t) among the strategies of `strategies` that could
-/// have made the same path. The path is laid out camera first: x[i] for i < t from `cam`, then
-/// the light sub-path reversed. pf[i] is x[i]'s area density from the camera side, pl[i] from
+/// have made the same path. The path is laid out camera first: `x[i]` for i < t from `cam`, then
+/// the light sub-path reversed. `pf[i]` is `x[i]`'s area density from the camera side, `pl[i]` from
 /// the light side; moving the connection one vertex multiplies the path density by pf/pl.
 /// `joined` (for s ≥ 1): the light vertex sampled afresh for s = 1, if any, and the two ends
 /// evaluated towards each other, whose densities are the ones the connection changes.

@@ -9,7 +9,7 @@ use mixmc::exrio::ExrImage;
 use mixmc::layout::{Names, Preset, Source};
 use mixmc::metrics::Metric;
 use std::path::{Path, PathBuf};
-use util::{TempDir, fixture, run, run_ok};
+use util::{TempDir, assert_one_line_error, fixture, run, run_ok};
 
 const SCENE: &str = "scenes/cornell-torus-tiny.json";
 const FOV: &str = "39.3077";
@@ -218,14 +218,7 @@ fn layout_errors_are_one_line_and_leave_no_file() {
     for (inputs, layout, expect) in cases {
         let mut args: Vec<&str> = inputs.iter().map(String::as_str).collect();
         args.extend(["--layout", layout, "-o", &o]);
-        let r = run("mixmc-mask", &args);
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(r.status.code(), Some(2), "{err}");
-        assert!(
-            err.starts_with("mixmc-mask: ") && err.contains(expect),
-            "{err}"
-        );
-        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert_one_line_error("mixmc-mask", &run("mixmc-mask", &args), &[expect]);
         assert!(!out.exists());
     }
 }

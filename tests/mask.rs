@@ -8,7 +8,7 @@ const MASK: &str = env!("CARGO_BIN_EXE_mixmc-mask");
 
 mod util;
 
-use util::{OMC, python, root, temp_dir as test_dir};
+use util::{OMC, assert_one_line_error, python, root, temp_dir as test_dir};
 
 fn run(cmd: &mut Command) -> Output {
     let out = cmd.output().unwrap();
@@ -219,10 +219,7 @@ fn other_channel_names_and_bad_input() {
             .args(&extra)
             .output()
             .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert_eq!(err.trim().lines().count(), 1, "{err}");
-        assert!(err.starts_with("mixmc-mask: "), "{err}");
+        assert_one_line_error("mixmc-mask", &o, &[]);
         assert!(!out_path.exists());
     }
     let o = Command::new(MASK)

@@ -5,7 +5,7 @@ mod util;
 
 use mixmc::exrio::ExrImage;
 use std::path::Path;
-use util::{TempDir, bin, fixture, run_ok};
+use util::{TempDir, assert_one_line_error, bin, fixture, run_ok};
 
 fn read(p: &Path) -> ExrImage {
     ExrImage::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -18,29 +18,24 @@ fn p(path: &Path) -> &str {
 /// Small MMLT settings: a tiny scene needs far fewer than the default 100 000 bootstrap samples.
 const FAST: [&str; 6] = ["--bootstrap", "5000", "--chains", "64", "--threads", "2"];
 
+/// `mixmc-mix` on the tiny glass caustic with a 16-spp mask, writing `out` and keeping its
+/// parts in `keep`, with the fast MMLT settings and `extra`.
+fn mix_caustic(seconds: &str, out: &Path, keep: &Path, extra: &[&str]) {
+    let scene = fixture("scenes/caustic-tiny.json");
+    let mut args = vec![&scene, "--time", seconds, "--mask-spp", "16", "-o", p(out)];
+    args.extend(["--keep", p(keep), "-q"]);
+    args.extend(extra);
+    args.extend(FAST);
+    run_ok("mixmc-mix", &args);
+}
+
 #[test]
 fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
     let tmp = TempDir::new("mix-keep");
     let keep = tmp.join("keep");
     let out = tmp.join("final.exr");
-    let mut args = vec![
-        fixture("scenes/caustic-tiny.json"),
-        "--time".into(),
-        "3".into(),
-        "--mask-spp".into(),
-        "16".into(),
-        "-o".into(),
-        p(&out).into(),
-        "--keep".into(),
-        p(&keep).into(),
-        "-q".into(),
-        // Keep the image a mix (not MCMC only) whatever the snapshot's noise.
-        "--switch".into(),
-        "1".into(),
-    ];
-    args.extend(FAST.iter().map(|s| s.to_string()));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run_ok("mixmc-mix", &args);
+    // Keep the image a mix (not MCMC only) whatever the snapshot's noise.
+    mix_caustic("3", &out, &keep, &["--switch", "1"]);
     let fin = read(&out);
     let snapshot = read(&keep.join("omc-snapshot.exr"));
     let omc = read(&keep.join("omc.exr"));
@@ -115,25 +110,8 @@ fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
     let keep = tmp.join("keep");
     let out = tmp.join("final.exr");
     // A switch of 0.001 fires on any mask that marks a single segment of the glass scene.
-    let mut args = vec![
-        fixture("scenes/caustic-tiny.json"),
-        "--time".into(),
-        "2".into(),
-        "--mask-spp".into(),
-        "16".into(),
-        "--paper-mask".into(),
-        "--switch".into(),
-        "0.001".into(),
-        "--no-fxaa".into(),
-        "-o".into(),
-        p(&out).into(),
-        "--keep".into(),
-        p(&keep).into(),
-        "-q".into(),
-    ];
-    args.extend(FAST.iter().map(|s| s.to_string()));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run_ok("mixmc-mix", &args);
+    let extra = ["--paper-mask", "--switch", "0.001", "--no-fxaa"];
+    mix_caustic("2", &out, &keep, &extra);
     let fin = read(&out);
     assert_eq!(fin.text_attr("mixmc.switched").as_deref(), Some("true"));
     let mask = read(&keep.join("mask.exr"));
@@ -178,12 +156,7 @@ fn bad_arguments_are_one_line_errors() {
             .args(&args)
             .output()
             .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
-        assert!(
-            err.starts_with("mixmc-mix: ") && err.contains(needle) && err.lines().count() == 1,
-            "{extra:?}: {err}"
-        );
+        assert_one_line_error("mixmc-mix", &o, &[needle]);
         assert!(!out.exists(), "{extra:?} left an output");
     }
 }

@@ -324,10 +324,7 @@ fn bad_masks_are_one_line_errors_naming_the_file() {
                 "-q",
             ],
         );
-        assert_eq!(r.status.code(), Some(2), "{}", show(&r));
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-        assert!(err.contains(mask.to_str().unwrap()), "{err}");
+        assert_one_line_error("mixmc-mmlt", &r, &[mask.to_str().unwrap()]);
     }
     assert!(!out.exists());
     // A mask below 0.05 renders, with a warning.

@@ -93,22 +93,7 @@ fn expect_input_error(dir: &Path, name: &str, scene_text: &str, needle: &str) {
             "-q",
         ],
     );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
-    assert_eq!(
-        stderr.trim_end().lines().count(),
-        1,
-        "{name}: not one line: {stderr}"
-    );
-    assert!(
-        stderr.starts_with("mixmc-omc: ") && stderr.contains(&format!("{name}.json")),
-        "{name}: {stderr}"
-    );
-    assert!(
-        stderr.contains(needle),
-        "{name}: expected `{needle}` in: {stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+    assert_one_line_error("mixmc-omc", &out, &[&format!("{name}.json"), needle]);
     assert!(!out_file.exists(), "{name}: output written");
     assert_eq!(
         std::fs::read_dir(dir)

@@ -47,14 +47,10 @@ pub fn run_code(exe: &str, args: &[&str], code: i32) -> Output {
     o
 }
 
-/// A tool error: exit 2 and exactly one line on stderr, containing every `needle`.
+/// A tool error: the one-line contract, with every `needle`.
 pub fn assert_refused(exe: &str, args: &[&str], needles: &[&str]) {
-    let o = run_code(exe, args, 2);
-    let err = stderr(&o);
-    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
-    for n in needles {
-        assert!(err.contains(n), "`{n}` not in: {err}");
-    }
+    let tool = Path::new(exe).file_name().unwrap().to_str().unwrap();
+    crate::shared::assert_one_line_error(tool, &run(exe, args), needles);
 }
 
 pub fn path_str(p: &Path) -> &str {

@@ -154,3 +154,21 @@ pub fn show(out: &Output) -> String {
         String::from_utf8_lossy(&out.stderr)
     )
 }
+
+/// The one-line error contract (DESIGN): exit status 2 and exactly one line on stderr, starting
+/// with `tool: ` and containing every needle, never a panic. Returns the line for further checks.
+pub fn assert_one_line_error(tool: &str, out: &Output, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{tool}: {}", show(out));
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "{tool}: not one line: {err}"
+    );
+    assert!(err.starts_with(&format!("{tool}: ")), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in: {err}");
+    }
+    err
+}

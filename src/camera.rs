@@ -43,6 +43,12 @@ impl Camera {
         }
     }
 
+    /// The vertical field of view in degrees, as the OMC header records it for the mask's
+    /// depth rule.
+    pub fn fov_y_deg(&self) -> f64 {
+        2.0 * (self.tan_half_y as f64).atan().to_degrees()
+    }
+
     /// Unit direction through continuous raster position (x right, y down, pixels of size 1).
     pub fn ray_dir(&self, x: f32, y: f32) -> Vec3 {
         let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_x;

@@ -226,6 +226,15 @@ impl Source {
         })
     }
 
+    /// The first file's image back, for a caller that lent it.
+    pub fn into_image(self) -> ExrImage {
+        self.files
+            .into_iter()
+            .next()
+            .expect("a source holds a file")
+            .1
+    }
+
     fn file(&self, i: usize) -> (&str, &ExrImage) {
         (&self.files[i].0, &self.files[i].1)
     }

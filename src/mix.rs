@@ -162,11 +162,13 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     let mask_start = Instant::now();
     let params = MaskParams {
-        fov_y: scene_fov(&snapshot),
+        fov_y: scene.camera.fov_y_deg() as f32,
         ..s.mask.clone()
     };
     let snapshot_name = dir.join(KEEP_NAMES[0]).display().to_string();
-    let (input, warnings) = MaskInput::from_source(&ours(&snapshot_name, &snapshot)?)?;
+    let snapshot_source = ours(&snapshot_name, snapshot)?;
+    let (input, warnings) = MaskInput::from_source(&snapshot_source)?;
+    let snapshot = snapshot_source.into_image();
     let m = build(&input, &params);
     let mask_img = mask_image(
         &m,
@@ -208,9 +210,9 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     let composite_start = Instant::now();
     let (omc_name, mcmc_name) = (dir.join(KEEP_NAMES[1]), dir.join(KEEP_NAMES[3]));
-    let mut image = match &mcmc {
+    let (mut image, omc) = match &mcmc {
         Some(mcmc_img) => {
-            let omc_source = ours(&omc_name.display().to_string(), &omc)?;
+            let omc_source = ours(&omc_name.display().to_string(), omc)?;
             let c: Composite = composite(
                 OmcInput {
                     path: &omc_name,
@@ -233,14 +235,14 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
                 // The job made every input itself: a mismatch is a bug, not a user error.
                 return Err(Error::new(format!("internal mismatch: {file}: {msg}")));
             }
-            c.image
+            (c.image, omc_source.into_image())
         }
         // Interrupted before MMLT rendered: what exists is the OMC image.
         None => {
             let mut img = ExrImage::new(w, h);
             let rgb = omc.require_rgb(["R", "G", "B"])?;
             img.add_rgb("", ["R", "G", "B"], &rgb);
-            img
+            (img, omc)
         }
     };
     let phases = Phases {
@@ -269,18 +271,14 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     })
 }
 
-/// Our own AOV image as the layout the mask and compositor read.
-fn ours(label: &str, img: &ExrImage) -> Result<Source> {
+/// Our own AOV image as the layout the mask and compositor read (`Source::into_image` gives
+/// it back).
+fn ours(label: &str, img: ExrImage) -> Result<Source> {
     Source::new(
         Preset::Mixmc,
         Names::default(),
-        vec![(label.to_string(), img.clone())],
+        vec![(label.to_string(), img)],
     )
-}
-
-/// The field of view the OMC header records (the mask's depth rule needs it).
-fn scene_fov(omc: &ExrImage) -> f32 {
-    omc.float_attr("mixmc.fov_y").map_or(40.0, |f| f as f32)
 }
 
 #[allow(clippy::too_many_arguments)]

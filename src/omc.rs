@@ -51,10 +51,7 @@ pub fn aov_image(scene: &Scene, s: &OmcSettings, r: &Rendered, gbuf: &GBuffer) -
     img.set_float("mixmc.seconds", r.seconds);
     img.set_float("mixmc.max_depth", s.max_depth as f64);
     // The mask's depth rule needs the camera's field of view (projected pixel size).
-    img.set_float(
-        "mixmc.fov_y",
-        2.0 * (scene.camera.tan_half_y as f64).atan().to_degrees(),
-    );
+    img.set_float("mixmc.fov_y", scene.camera.fov_y_deg());
     img.set_text("mixmc.partial", if r.partial { "true" } else { "false" });
     img.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
     img

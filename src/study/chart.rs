@@ -1,7 +1,7 @@
 //! Pictures of the study: error against time per scene (log–log, PNG and SVG) and side-by-side
 //! crops of each scene's hardest region, like the paper's Figures 4–8.
 
-use super::report::spread;
+use super::report::{distinct, metric_title, spread};
 use super::{Results, Showcase};
 use crate::error::{Error, Result};
 use crate::film::{srgb8, write_png_rgb8};
@@ -37,16 +37,8 @@ fn draw_chart<DB: DrawingBackend>(
 ) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
     let rows: Vec<_> = res.records.iter().filter(|r| r.scene == scene).collect();
-    let mut methods: Vec<String> = Vec::new();
-    let mut budgets: Vec<f64> = Vec::new();
-    for r in &rows {
-        if !methods.contains(&r.method) {
-            methods.push(r.method.clone());
-        }
-        if !budgets.contains(&r.budget) {
-            budgets.push(r.budget);
-        }
-    }
+    let methods = distinct(rows.iter().map(|r| r.method.clone()));
+    let budgets = distinct(rows.iter().map(|r| r.budget));
     let values: Vec<f64> = rows
         .iter()
         .map(|r| r.scores.get(metric))
@@ -64,14 +56,7 @@ fn draw_chart<DB: DrawingBackend>(
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
     let (b0, b1) = (b0 / 1.3, b1 * 1.3);
-    let title = format!(
-        "{scene}: {} against time",
-        match metric {
-            Metric::Mse => "MSE (LDR 0-255)",
-            Metric::Relmse => "relMSE",
-            Metric::Flip => "FLIP",
-        }
-    );
+    let title = format!("{scene}: {} against time", metric_title(metric));
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 20))
         .margin(12)
@@ -119,13 +104,7 @@ fn draw_chart<DB: DrawingBackend>(
 /// `<dir>/<scene>-<metric>.png` and `.svg` for every scene of the study.
 pub fn write_charts(res: &Results, dir: &Path, metric: Metric) -> Result<Vec<String>> {
     let mut written = Vec::new();
-    let mut scenes: Vec<&str> = Vec::new();
-    for r in &res.records {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-    }
-    for scene in scenes {
+    for scene in distinct(res.records.iter().map(|r| r.scene.as_str())) {
         let stem = format!("{scene}-{}", metric.name());
         let (w, h) = CHART_SIZE;
         let mut buf = vec![0u8; (w * h * 3) as usize];

@@ -37,6 +37,18 @@ pub enum StudyMethod {
 }
 
 impl StudyMethod {
+    /// Every method, in the order `--methods` lists them.
+    const ALL: [StudyMethod; 8] = [
+        StudyMethod::Omc(Method::Pt),
+        StudyMethod::Omc(Method::Bpt),
+        StudyMethod::Omc(Method::Lt),
+        StudyMethod::Omc(Method::Ibpt),
+        StudyMethod::Mmlt,
+        StudyMethod::Kelemen,
+        StudyMethod::Mix(Split::Half),
+        StudyMethod::Mix(Split::Auto),
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             StudyMethod::Omc(m) => m.name(),
@@ -63,22 +75,16 @@ pub fn methods_for(scene: &str, names: &[String]) -> Result<Vec<StudyMethod>> {
     names
         .iter()
         .map(|n| {
-            Ok(match n.as_str() {
-                "omc" => StudyMethod::Omc(omc),
-                "pt" => StudyMethod::Omc(Method::Pt),
-                "bpt" => StudyMethod::Omc(Method::Bpt),
-                "lt" => StudyMethod::Omc(Method::Lt),
-                "ibpt" => StudyMethod::Omc(Method::Ibpt),
-                "mmlt" => StudyMethod::Mmlt,
-                "kelemen" => StudyMethod::Kelemen,
-                "mix" => StudyMethod::Mix(Split::Half),
-                "mix-auto" => StudyMethod::Mix(Split::Auto),
-                other => {
-                    return Err(Error::new(format!(
-                        "unknown method `{other}` (omc, pt, bpt, lt, ibpt, mmlt, kelemen, mix, mix-auto)"
-                    )));
-                }
-            })
+            if n == "omc" {
+                return Ok(StudyMethod::Omc(omc));
+            }
+            StudyMethod::ALL
+                .into_iter()
+                .find(|m| m.name() == n)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = StudyMethod::ALL.iter().map(|m| m.name()).collect();
+                    Error::new(format!("unknown method `{n}` (omc, {})", known.join(", ")))
+                })
         })
         .collect::<Result<Vec<_>>>()
         .map(|mut v| {

@@ -96,7 +96,7 @@ fn opt(v: f64) -> String {
 }
 
 /// Distinct values in first-seen order.
-fn distinct<T: PartialEq + Clone>(items: impl Iterator<Item = T>) -> Vec<T> {
+pub(super) fn distinct<T: PartialEq + Clone>(items: impl Iterator<Item = T>) -> Vec<T> {
     let mut out: Vec<T> = Vec::new();
     for i in items {
         if !out.contains(&i) {
@@ -217,9 +217,10 @@ pub fn markdown(res: &Results) -> String {
     s
 }
 
-fn metric_title(m: Metric) -> &'static str {
+/// ASCII only: the charts' font has no en dash.
+pub(super) fn metric_title(m: Metric) -> &'static str {
     match m {
-        Metric::Mse => "MSE (LDR 0–255)",
+        Metric::Mse => "MSE (LDR 0-255)",
         Metric::Relmse => "relMSE",
         Metric::Flip => "FLIP",
     }

@@ -191,16 +191,22 @@ fn caustic_image_mean_is_b_and_within_2_percent_at_every_seed() {
 
 #[test]
 fn masked_render_estimates_alpha_times_indirect_cornell() {
-    masked(CORNELL, "512");
+    masked(CORNELL, "512", &["1"]);
 }
 
-/// The caustic scene, whose b once came from heavy-tailed bootstrap samples (±7% at this budget).
+/// The caustic scene, whose b once came from heavy-tailed bootstrap samples (±7% at this
+/// budget). The region at α = ε gets a tenth of the mutations' density, so its error is ~√10
+/// times the other's: over seeds 1–14 at 1024 mutations/px its channel means were off by 3.0–3.4%
+/// RMS (seeds 4–6 alone 3.1–5.4%); a single seed passed or failed by its luck. The mean of four
+/// seeds at 2048 puts the 3% bound at ~2.5 of its standard deviations.
 #[test]
 fn masked_render_estimates_alpha_times_indirect_caustic() {
-    masked(CAUSTIC, "1024");
+    masked(CAUSTIC, "2048", &["1", "2", "3", "4"]);
 }
 
-fn masked(scene: &str, mpp: &str) {
+/// MMLT with a half-ε mask at each seed of `seeds`: the mean over seeds of each region's channel
+/// sums is within 3% of α × the BPT reference's indirect light.
+fn masked(scene: &str, mpp: &str, seeds: &[&str]) {
     let stem = Path::new(scene).file_stem().unwrap().to_string_lossy();
     let dir = TempDir::new(&format!("masked-{stem}"));
     let (_, indirect) = reference(scene);
@@ -215,30 +221,46 @@ fn masked(scene: &str, mpp: &str) {
     mask.add("alpha", alpha.clone());
     let mask_path = dir.join("mask.exr");
     mask.write(&mask_path, false).unwrap();
-    let out = dir.join("mcmc.exr");
-    let img = mmlt(
-        &fixture(scene),
-        &out,
-        &[
+    let reference = ind.require_rgb(["R", "G", "B"]).unwrap();
+    let regions = [("α = 1", 1.0f32), ("α = ε", eps)];
+    // got / want per region and channel, summed over seeds.
+    let mut ratio = [[0.0f64; 3]; 2];
+    let mut img = None;
+    for seed in seeds {
+        let out = dir.join(&format!("mcmc-{seed}.exr"));
+        let mask_arg = mask_path.to_str().unwrap();
+        let args = [
             "--mask",
-            mask_path.to_str().unwrap(),
+            mask_arg,
             "--mutations-per-pixel",
             mpp,
-        ],
-    );
-    let rgb = img.require_rgb(["R", "G", "B"]).unwrap();
-    let reference = ind.require_rgb(["R", "G", "B"]).unwrap();
-    for (region, a) in [("α = 1", 1.0f32), ("α = ε", eps)] {
-        for c in 0..3 {
-            let (mut got, mut want) = (0.0f64, 0.0f64);
-            for p in (0..w * h).filter(|&p| alpha[p] == a) {
-                got += rgb[p][c] as f64;
-                want += (a * reference[p][c]) as f64;
+            "--seed",
+            seed,
+        ];
+        let this = mmlt(&fixture(scene), &out, &args);
+        let rgb = this.require_rgb(["R", "G", "B"]).unwrap();
+        for (r, &(_, a)) in regions.iter().enumerate() {
+            for c in 0..3 {
+                let (mut got, mut want) = (0.0f64, 0.0f64);
+                for p in (0..w * h).filter(|&p| alpha[p] == a) {
+                    got += rgb[p][c] as f64;
+                    want += (a * reference[p][c]) as f64;
+                }
+                ratio[r][c] += got / want;
             }
-            let rel = (got / want - 1.0).abs();
-            assert!(rel < 0.03, "{region}, channel {c}: {got} vs {want} ({rel})");
+        }
+        img = Some(this);
+    }
+    for ((region, _), sums) in regions.iter().zip(&ratio) {
+        for (c, sum) in sums.iter().enumerate() {
+            let rel = sum / seeds.len() as f64 - 1.0;
+            assert!(
+                rel.abs() < 0.03,
+                "{region}, channel {c}: mean over seeds off by {rel}"
+            );
         }
     }
+    let img = img.unwrap();
     assert_eq!(
         img.text_attr("mixmc.mask").as_deref(),
         Some(mask_path.to_str().unwrap())

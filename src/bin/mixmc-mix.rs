@@ -54,7 +54,8 @@ struct Args {
     /// MMLT chains.
     #[arg(long, default_value_t = 256)]
     chains: usize,
-    /// MMLT bootstrap samples per rendered depth.
+    /// MMLT bootstrap samples per rendered depth (fewer if they would take more than a tenth of
+    /// MMLT's time).
     #[arg(long, default_value_t = 100_000)]
     bootstrap: usize,
     /// Skip FXAA on the mask's borders.

@@ -41,7 +41,8 @@ struct Args {
     /// Standard deviation of a small step in primary sample space.
     #[arg(long, default_value_t = DEFAULT_SIGMA)]
     sigma: f32,
-    /// Bootstrap samples per rendered depth, for b and the chains' starting states.
+    /// Bootstrap samples per rendered depth, which pick the chains' starting states (with --time,
+    /// fewer if they would take more than a tenth of it).
     #[arg(long, default_value_t = 100_000)]
     bootstrap: usize,
     /// BPT samples per pixel that estimate the normalisation b (the image's mean luminance).

@@ -167,6 +167,8 @@ pub struct MmltResult {
     pub b_depth: Vec<f64>,
     /// BPT passes that estimated b (`b_spp` unless a time budget cut them short).
     pub b_spp: u64,
+    /// Bootstrap samples per depth (`bootstrap` unless a time budget cut them short).
+    pub bootstrap: usize,
     pub chains: usize,
     pub acceptance: f64,
 }
@@ -336,20 +338,9 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
     let pixels = w * h;
     let alpha = mask.map(|m| m.alpha.as_slice());
     let depths: Vec<u32> = (s.min_depth..=s.max_depth).collect();
-    let n_boot = s.bootstrap.max(1);
 
     let (b_depth, b_spp) = normalisation(scene, alpha, s, &depths);
-    // Bootstrap: independent samples of every rendered depth give the chains their starting
-    // states, chosen ∝ weight so they start in the stationary law.
-    let weights: Vec<f32> = (0..depths.len() * n_boot)
-        .into_par_iter()
-        .map(|id| {
-            let depth = depths[id / n_boot];
-            let mut sampler = MltSampler::new(s.seed, id as u64, id as u64, s.sigma, s.large_step);
-            evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth)).y
-        })
-        .collect();
-
+    let (weights, n_boot) = bootstrap(scene, alpha, s, &depths);
     let mut chains = start_chains(scene, alpha, s, &depths, &weights, n_boot, pixels);
     // Mutations per round spent on each depth.
     let mut per_depth = vec![0u64; depths.len()];
@@ -459,6 +450,7 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
         b: b_depth.iter().sum(),
         b_depth,
         b_spp,
+        bootstrap: n_boot,
         chains: chains.len(),
         acceptance: if chains.is_empty() || rounds == 0 {
             0.0
@@ -470,6 +462,63 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
 
 /// Share of a `--time` budget that the estimate of b may take before it stops adding passes.
 const B_TIME_SHARE: f64 = 0.1;
+
+/// Share of a `--time` budget that the bootstrap may take before it stops adding samples:
+/// 100 000 samples of each of 11 depths take ~2 s on two cores, which a short budget (the main
+/// job's MMLT part of a 6-s run) cannot spare.
+const BOOT_TIME_SHARE: f64 = 0.1;
+/// Bootstrap samples per depth per parallel batch; the time share is checked between batches.
+const BOOT_BATCH: usize = 2000;
+
+/// The sampler id of bootstrap sample `i` of depth slot `slot`: samples are made batch by batch
+/// for all depths at once, so ids interleave the depths and do not depend on how many samples
+/// per depth a time budget lets through.
+fn boot_id(i: usize, slot: usize, depths: usize) -> u64 {
+    (i * depths + slot) as u64
+}
+
+/// The bootstrap: independent samples of every rendered depth whose weights pick the chains'
+/// starting states (∝ weight, so that they start in the stationary law). Returns the weights,
+/// depth by depth, and the samples per depth: `s.bootstrap`, or fewer (whole batches, at least
+/// one) when a time budget's share [`BOOT_TIME_SHARE`] runs out or after Ctrl-C.
+fn bootstrap(
+    scene: &Scene,
+    alpha: Option<&[f32]>,
+    s: &MmltSettings,
+    depths: &[u32],
+) -> (Vec<f32>, usize) {
+    let start = Instant::now();
+    let (nd, target) = (depths.len(), s.bootstrap.max(1));
+    let mut per_depth: Vec<Vec<f32>> = vec![Vec::new(); nd];
+    let mut done = 0;
+    while done < target {
+        if done > 0 && signal::interrupted() {
+            break;
+        }
+        let batch = BOOT_BATCH.min(target - done);
+        if let Budget::Seconds(t) = s.budget {
+            let spent = start.elapsed().as_secs_f64();
+            if done > 0 && spent * (done + batch) as f64 / done as f64 > BOOT_TIME_SHARE * t {
+                break;
+            }
+        }
+        let ys: Vec<f32> = (done..done + batch)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                depths.iter().enumerate().map(move |(slot, &depth)| {
+                    let id = boot_id(i, slot, nd);
+                    let mut sampler = MltSampler::new(s.seed, id, id, s.sigma, s.large_step);
+                    evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth)).y
+                })
+            })
+            .collect();
+        for (k, y) in ys.into_iter().enumerate() {
+            per_depth[k % nd].push(y);
+        }
+        done += batch;
+    }
+    (per_depth.concat(), done)
+}
 
 /// Each rendered depth's b_d, the mean over the film of Y(α·I_d), from `s.b_spp` BPT passes (under
 /// a time budget, fewer if they would take more than [`B_TIME_SHARE`] of it, or after Ctrl-C; at
@@ -637,8 +686,9 @@ fn start_chains(
         .map(|(c, &id)| {
             let slot = id / n_boot;
             let depth = depths[slot];
+            let boot = boot_id(id % n_boot, slot, depths.len());
             let chain_key = (weights.len() + c) as u64;
-            let mut sampler = MltSampler::new(s.seed, id as u64, chain_key, s.sigma, s.large_step);
+            let mut sampler = MltSampler::new(s.seed, boot, chain_key, s.sigma, s.large_step);
             let current = evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth));
             sampler.accept();
             // Round mutations split as evenly as possible over the chains.
@@ -680,7 +730,7 @@ pub fn mcmc_image(
     img.set_float("mixmc.max_depth", s.max_depth as f64);
     img.set_float("mixmc.large_step", s.large_step as f64);
     img.set_float("mixmc.sigma", s.sigma as f64);
-    img.set_float("mixmc.bootstrap", s.bootstrap as f64);
+    img.set_float("mixmc.bootstrap", r.bootstrap as f64);
     img.set_float("mixmc.b_spp", r.b_spp as f64);
     let b_depth: Vec<String> = r.b_depth.iter().map(|b| format!("{b:e}")).collect();
     img.set_text("mixmc.b_depth", b_depth.join(" "));

@@ -60,7 +60,8 @@ pub fn write_steps(dir: &Path, input: &MaskInput, m: &Mask) -> Result<()> {
         m,
         m.segments.labels.iter().map(|&l| colour(l)),
     )?;
-    write(dir, "4-filled.png", m, m.filled.iter().map(|&f| gray(f)))?;
+    let filled = m.segments.labels.iter().map(|&l| gray(m.fill[l as usize]));
+    write(dir, "4-filled.png", m, filled)?;
     let (w, h) = (m.width, m.height);
     let border = |i: usize| {
         let (x, y) = (i % w, i / w);

@@ -99,8 +99,8 @@ pub struct Mask {
     /// Step 2 after the spike gate (the plain sigmoid with `--paper`).
     pub weight: Vec<f32>,
     pub segments: Segments,
-    /// Step 4: each segment's fill value.
-    pub filled: Vec<f32>,
+    /// Step 4: each segment's fill value, by segment id.
+    pub fill: Vec<f32>,
     /// Steps 5–6 and the switch: ε or 1.
     pub alpha: Vec<f32>,
     /// Selection threshold `t` and the top pixels' median `m` of step 2.
@@ -142,8 +142,10 @@ pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
 
 /// The spike gate (module docs): a weight stays only where the noise reaches `floor` and
 /// `contrast` times its segment's median noise, and only in a heavy-tailed segment (mean noise
-/// ≥ `tail` × median). The floor needs no median and goes first; only the segments that still
-/// hold a weight then need their median and mean (on a clean image few or none).
+/// ≥ `tail` × median). The floor needs no median and goes first, here; only the segments that
+/// still hold a weight then need their median and mean (on a clean image few or none). Returns
+/// per segment the noise a weighted pixel must reach (`None` if no segment needs one), which
+/// the fill step applies on its pass over the weights.
 fn spike_gate(
     noise: &[f32],
     weight: &mut [f32],
@@ -151,7 +153,7 @@ fn spike_gate(
     contrast: f32,
     tail: f32,
     floor: f32,
-) {
+) -> Option<Vec<f32>> {
     // A few parts per thread (so a thread slowed by other work can be relieved), each with
     // per-segment state for the segments it meets.
     let chunk = noise
@@ -180,56 +182,71 @@ fn spike_gate(
     let mut needed = 0;
     for &l in held.iter().flatten() {
         if need[l as usize] == NONE {
-            need[l as usize] = needed;
+            need[l as usize] = needed as u32;
             needed += 1;
         }
     }
     if needed == 0 {
-        return;
+        return None;
     }
-    // Each part groups its pixels of the needed segments by segment (a counting sort), in
-    // parallel; each needed segment then gathers its pieces and selects its median.
+    // The noise of the needed segments' pixels grouped by segment (a counting sort), each
+    // segment's pixels in raster order: every part counts its pixels per segment, then writes
+    // them into its own piece of each segment's block.
     // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear too), so
     // its bit patterns sort as `f32::total_cmp` does and selection can compare integers.
-    let parts: Vec<(Vec<usize>, Vec<u32>)> = seg
+    let counts: Vec<Vec<usize>> = seg
         .labels
         .par_chunks(chunk)
-        .zip(noise.par_chunks(chunk))
-        .map(|(labels, noise)| {
-            let mut start = vec![0usize; needed as usize + 1];
+        .map(|labels| {
+            let mut count = vec![0usize; needed];
             for &l in labels {
                 let j = need[l as usize];
                 if j != NONE {
-                    start[j as usize + 1] += 1;
+                    count[j as usize] += 1;
                 }
             }
-            for j in 0..needed as usize {
-                start[j + 1] += start[j];
-            }
-            let mut grouped = vec![0u32; start[needed as usize]];
-            let mut cursor = start.clone();
+            count
+        })
+        .collect();
+    let sizes: Vec<usize> = (0..needed)
+        .map(|j| counts.iter().map(|c| c[j]).sum())
+        .collect();
+    let mut grouped = vec![0u32; sizes.iter().sum()];
+    let mut pieces: Vec<Vec<std::slice::IterMut<u32>>> =
+        counts.iter().map(|_| Vec::with_capacity(needed)).collect();
+    let mut rest = grouped.as_mut_slice();
+    for j in 0..needed {
+        for (piece, count) in pieces.iter_mut().zip(&counts) {
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(count[j]);
+            piece.push(mine.iter_mut());
+            rest = tail;
+        }
+    }
+    pieces
+        .into_par_iter()
+        .zip(seg.labels.par_chunks(chunk))
+        .zip(noise.par_chunks(chunk))
+        .for_each(|((mut piece, labels), noise)| {
             for (&l, &n) in labels.iter().zip(noise) {
                 let j = need[l as usize];
                 if j != NONE {
-                    grouped[cursor[j as usize]] = n.to_bits();
-                    cursor[j as usize] += 1;
+                    *piece[j as usize].next().expect("counted") = n.to_bits();
                 }
             }
-            (start, grouped)
-        })
-        .collect();
+        });
+    let mut blocks = Vec::with_capacity(needed);
+    let mut rest = grouped.as_mut_slice();
+    for &size in &sizes {
+        let (block, tail) = std::mem::take(&mut rest).split_at_mut(size);
+        blocks.push(block);
+        rest = tail;
+    }
     // Per needed segment, the noise a weighted pixel must reach: none reaches it in a
     // light-tailed segment.
-    let gate: Vec<f32> = (0..needed as usize)
+    let gate: Vec<f32> = blocks
         .into_par_iter()
-        .map(|j| {
-            let mut v: Vec<u32> = parts
-                .iter()
-                .flat_map(|(start, grouped)| &grouped[start[j]..start[j + 1]])
-                .copied()
-                .collect();
-            // Summed in raster order (the parts are in order) before the selection reorders
-            // them: deterministic.
+        .map(|v| {
+            // Summed in raster order before the selection reorders them: deterministic.
             let mean = v.iter().map(|&b| f32::from_bits(b) as f64).sum::<f64>() / v.len() as f64;
             let mid = (v.len() - 1) / 2;
             let median = f32::from_bits(*v.select_nth_unstable_by(mid, |a, b| b.cmp(a)).1);
@@ -240,15 +257,11 @@ fn spike_gate(
             }
         })
         .collect();
-    weight
-        .par_iter_mut()
-        .zip(noise)
-        .zip(&seg.labels)
-        .for_each(|((w, &n), &l)| {
-            if *w > 0.0 && n < gate[need[l as usize] as usize] {
-                *w = 0.0;
-            }
-        });
+    Some(
+        need.iter()
+            .map(|&j| if j == NONE { 0.0 } else { gate[j as usize] })
+            .collect(),
+    )
 }
 
 /// All steps.
@@ -269,23 +282,31 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         fov_y: p.fov_y,
     };
     let segments = segment(&g, &sp);
-    if !p.paper {
+    let gate = if p.paper {
+        None
+    } else {
         let mean_y = input.luminance.par_iter().map(|&y| y as f64).sum::<f64>()
             / input.luminance.len() as f64;
         let floor = p.min_level * mean_y as f32;
-        spike_gate(&noise, &mut weight, &segments, p.contrast, p.tail, floor);
-    }
+        spike_gate(&noise, &mut weight, &segments, p.contrast, p.tail, floor)
+    };
     let count = segments.count;
-    let fill = segments
-        .labels
-        .par_chunks(FILL_CHUNK)
-        .zip(weight.par_chunks(FILL_CHUNK))
-        .map(|(labels, weights)| {
+    // The gate's last test and the fill in one pass.
+    let fill = weight
+        .par_chunks_mut(FILL_CHUNK)
+        .zip(noise.par_chunks(FILL_CHUNK))
+        .zip(segments.labels.par_chunks(FILL_CHUNK))
+        .map(|((weights, noise), labels)| {
             let mut f = vec![0.0f32; count];
             // Weights are sparse after step 2 (and the gate).
-            for (&l, &w) in labels.iter().zip(weights) {
-                if w > 0.0 {
-                    f[l as usize] = f[l as usize].max(w);
+            for ((w, &n), &l) in weights.iter_mut().zip(noise).zip(labels) {
+                if *w > 0.0 {
+                    let l = l as usize;
+                    if gate.as_ref().is_some_and(|g| n < g[l]) {
+                        *w = 0.0;
+                    } else {
+                        f[l] = f[l].max(*w);
+                    }
                 }
             }
             f
@@ -298,39 +319,34 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
             },
         );
     let complex_segments = fill.iter().filter(|&&f| f > 0.5).count();
-    // Filled value and α in one pass, counting the complex pixels on the way.
-    let n = segments.labels.len();
-    let (mut filled, mut alpha) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let complex: usize = filled
-        .par_chunks_mut(PIXEL_CHUNK)
-        .zip(alpha.par_chunks_mut(PIXEL_CHUNK))
-        .zip(segments.labels.par_chunks(PIXEL_CHUNK))
-        .map(|((filled, alpha), labels)| {
-            let mut complex = 0;
-            for ((f, a), &l) in filled.iter_mut().zip(alpha.iter_mut()).zip(labels) {
-                *f = fill[l as usize];
-                *a = if f.max(p.epsilon) > 0.5 {
-                    complex += 1;
-                    1.0
-                } else {
-                    p.epsilon
-                };
-            }
-            complex
-        })
+    // Whether a segment is complex is a per-segment fact, so the complex pixels are counted
+    // first and α, which the switch may set to 1 everywhere, is written once.
+    let complex_of: Vec<bool> = fill.iter().map(|&f| f.max(p.epsilon) > 0.5).collect();
+    let complex: usize = segments
+        .labels
+        .par_chunks(PIXEL_CHUNK)
+        .map(|labels| labels.iter().filter(|&&l| complex_of[l as usize]).count())
         .sum();
-    let complex_fraction = complex as f64 / alpha.len() as f64;
+    let complex_fraction = complex as f64 / segments.labels.len() as f64;
     let switched = complex_fraction > p.switch;
-    if switched {
-        alpha.par_iter_mut().for_each(|a| *a = 1.0);
-    }
+    let alpha = segments
+        .labels
+        .par_iter()
+        .map(|&l| {
+            if switched || complex_of[l as usize] {
+                1.0
+            } else {
+                p.epsilon
+            }
+        })
+        .collect();
     Mask {
         width,
         height,
         noise,
         weight,
         segments,
-        filled,
+        fill,
         alpha,
         threshold,
         top_median,

@@ -24,8 +24,8 @@
 //!
 //! Segment ids are numbered in raster order of each segment's first pixel, so the labelling is
 //! deterministic (and the union-find below keeps the smallest pixel index as the root, which
-//! gives that order for free). Rows are split into strips labelled in parallel, then the strip
-//! seams are joined.
+//! gives that order for free). Rows are split into strips labelled in parallel, each numbering
+//! its own sets; joining those sets across the strip seams then numbers the segments.
 
 use rayon::prelude::*;
 
@@ -55,119 +55,145 @@ pub struct Segments {
     pub count: usize,
 }
 
-/// Per-pixel bits of the neighbour rule, computed once: background; the right (down) neighbour
-/// is the same surface (both not background, equal id, close normals); the pixel lies on a
-/// straight run of 1/z along x (y).
+/// Per-pixel bits of the neighbour rule: background; the right (down) neighbour is the same
+/// surface (both not background, equal id, close normals); the pixel lies on a straight run of
+/// 1/z along x (y).
 const BACKGROUND: u8 = 1;
 const SAME_RIGHT: u8 = 2;
 const SAME_DOWN: u8 = 4;
 const LINEAR_X: u8 = 8;
 const LINEAR_Y: u8 = 16;
 
-impl GBuffer<'_> {
-    #[inline(always)]
-    pub fn is_background(&self, i: usize) -> bool {
-        !self.depth[i].is_finite() || self.matid[i] < 0.0
-    }
+/// What the labelling reads: the pixel joins its left (upper) neighbour.
+const JOIN_LEFT: u8 = 1;
+const JOIN_UP: u8 = 2;
 
-    /// Whether two surface (non-background) pixels have equal ids and close normals.
-    #[inline(always)]
-    fn same_surface(&self, a: usize, b: usize, normal_tol: f32) -> bool {
-        if self.matid[a] != self.matid[b] {
-            return false;
-        }
-        let (na, nb) = (self.normal[a], self.normal[b]);
-        let dn2 = (na[0] - nb[0]).powi(2) + (na[1] - nb[1]).powi(2) + (na[2] - nb[2]).powi(2);
-        dn2 < normal_tol * normal_tol
-    }
-}
-
-/// The neighbour rule with each pixel's bits computed once, so that every edge's id and normal
-/// test runs once and the labelling reads bits.
+/// The neighbour rule, evaluated a row at a time. A row's joins need the rule bits of its own
+/// row and the one above, and those need the surface bits and 1/z of one more row on either
+/// side: a strip keeps these few rows in small buffers that stay in cache, instead of
+/// full-size arrays, each of which would cost a pass over memory and its page faults.
 struct Rule<'a> {
-    depth: &'a [f32],
-    width: usize,
+    g: &'a GBuffer<'a>,
+    normal_tol: f32,
     depth_tol: f32,
     pixel_angle: f32,
-    bits: Vec<u8>,
+    slope_tol: f32,
 }
 
 impl<'a> Rule<'a> {
     fn new(g: &'a GBuffer<'a>, p: &SegmentParams) -> Self {
-        let (w, h) = (g.width, g.height);
         // In f64, so that an independent implementation gets the same f32 tolerance bit for bit.
-        let pixel_angle = (2.0 * ((p.fov_y as f64).to_radians() * 0.5).tan() / h as f64) as f32;
-        let slope_tol = p.depth_tol * pixel_angle;
-        let mut edges = vec![0u8; w * h];
-        edges.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, b) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                if g.is_background(i) {
-                    *b = BACKGROUND;
-                    continue;
-                }
-                let same = |j: usize| !g.is_background(j) && g.same_surface(i, j, p.normal_tol);
-                let right = x + 1 < w && same(i + 1);
-                let down = y + 1 < h && same(i + w);
-                *b = (u8::from(right) * SAME_RIGHT) | (u8::from(down) * SAME_DOWN);
-            }
-        });
-        let q: Vec<f32> = g.depth.par_iter().map(|z| 1.0 / z).collect();
-        // A straight run along an axis: both edges through the pixel join one surface, and the
-        // second difference of 1/z is below `slope_tol · q`.
-        let straight = |i: usize, step: usize, same: u8| {
-            edges[i - step] & same != 0
-                && edges[i] & same != 0
-                && ((q[i + step] - q[i]) - (q[i] - q[i - step])).abs() < slope_tol * q[i]
-        };
-        let mut bits = edges.clone();
-        bits.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, b) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                let lx = x > 0 && x + 1 < w && straight(i, 1, SAME_RIGHT);
-                let ly = y > 0 && y + 1 < h && straight(i, w, SAME_DOWN);
-                *b |= (u8::from(lx) * LINEAR_X) | (u8::from(ly) * LINEAR_Y);
-            }
-        });
+        let pixel_angle =
+            (2.0 * ((p.fov_y as f64).to_radians() * 0.5).tan() / g.height as f64) as f32;
         Rule {
-            depth: g.depth,
-            width: w,
+            g,
+            normal_tol: p.normal_tol,
             depth_tol: p.depth_tol,
             pixel_angle,
-            bits,
+            slope_tol: p.depth_tol * pixel_angle,
         }
     }
 
-    /// Whether pixel `i` joins its neighbour `i − step` (`step` 1: left, with `SAME_RIGHT` and
-    /// `LINEAR_X`; `step` = width: up, with `SAME_DOWN` and `LINEAR_Y`).
-    #[inline(always)]
-    fn joins(&self, i: usize, step: usize) -> bool {
-        let (same, linear) = if step == 1 {
-            (SAME_RIGHT, LINEAR_X)
-        } else {
-            debug_assert_eq!(step, self.width);
-            (SAME_DOWN, LINEAR_Y)
+    /// Row `y`'s surface bits: `BACKGROUND`, or `SAME_RIGHT` and `SAME_DOWN`. Each test is
+    /// evaluated for every pixel and combined without branches, so that the loops vectorise.
+    fn surface_row(&self, y: usize, out: &mut [u8]) {
+        let (g, w, h) = (self.g, self.g.width, self.g.height);
+        let tol2 = self.normal_tol * self.normal_tol;
+        let background = |z: f32, m: f32| !z.is_finite() | (m < 0.0);
+        // `GBuffer::same_surface` of two pixels, for the other one not background.
+        let same = |ma: f32, mb: f32, na: [f32; 3], nb: [f32; 3], zb: f32| {
+            let dn2 = (na[0] - nb[0]).powi(2) + (na[1] - nb[1]).powi(2) + (na[2] - nb[2]).powi(2);
+            !background(zb, mb) & (ma == mb) & (dn2 < tol2)
         };
-        let (bo, bi) = (self.bits[i - step], self.bits[i]);
-        if bo & same == 0 {
-            return bo & bi & BACKGROUND != 0;
+        let row = y * w..(y + 1) * w;
+        let (z, m, nr) = (&g.depth[row.clone()], &g.matid[row.clone()], &g.normal[row]);
+        let out = &mut out[..w];
+        for x in 0..w - 1 {
+            let right = same(m[x], m[x + 1], nr[x], nr[x + 1], z[x + 1]);
+            out[x] = u8::from(right) * SAME_RIGHT;
         }
-        let (za, zb) = (self.depth[i], self.depth[i - step]);
-        (bo | bi) & linear != 0
-            || (za - zb).abs() < self.depth_tol * 0.5 * (za + zb) * self.pixel_angle
+        out[w - 1] = 0;
+        if y + 1 < h {
+            let below = (y + 1) * w..(y + 2) * w;
+            let (zb, mb, nb) = (
+                &g.depth[below.clone()],
+                &g.matid[below.clone()],
+                &g.normal[below],
+            );
+            for x in 0..w {
+                let down = same(m[x], mb[x], nr[x], nb[x], zb[x]);
+                out[x] |= u8::from(down) * SAME_DOWN;
+            }
+        }
+        for x in 0..w {
+            if background(z[x], m[x]) {
+                out[x] = BACKGROUND;
+            }
+        }
+    }
+
+    /// Row `y`'s inverse depth.
+    fn inverse_row(&self, y: usize, out: &mut [f32]) {
+        let w = self.g.width;
+        for (q, z) in out.iter_mut().zip(&self.g.depth[y * w..(y + 1) * w]) {
+            *q = 1.0 / z;
+        }
+    }
+
+    /// Row `y`'s rule bits: its surface bits `surf[1]` plus the linearity flags. A straight run
+    /// along an axis: both edges through the pixel join one surface, and the second difference
+    /// of 1/z is below `slope_tol · q`. `surf[0]` and `q[0]` are row `y − 1`, `q[2]` row `y + 1`
+    /// (unread at the image's borders).
+    fn rule_row(&self, y: usize, surf: &[Vec<u8>; 2], q: &[Vec<f32>; 3], out: &mut [u8]) {
+        let (w, h, tol) = (self.g.width, self.g.height, self.slope_tol);
+        let (above, here) = (&surf[0][..w], &surf[1][..w]);
+        let (qa, qh, qb) = (&q[0][..w], &q[1][..w], &q[2][..w]);
+        out.copy_from_slice(here);
+        for x in 1..w.saturating_sub(1) {
+            let straight = (here[x - 1] & here[x] & SAME_RIGHT != 0)
+                & (((qh[x + 1] - qh[x]) - (qh[x] - qh[x - 1])).abs() < tol * qh[x]);
+            out[x] |= u8::from(straight) * LINEAR_X;
+        }
+        if y > 0 && y + 1 < h {
+            for x in 0..w {
+                let straight = (above[x] & here[x] & SAME_DOWN != 0)
+                    & (((qb[x] - qh[x]) - (qh[x] - qa[x])).abs() < tol * qh[x]);
+                out[x] |= u8::from(straight) * LINEAR_Y;
+            }
+        }
+    }
+
+    /// Whether a pixel with rule bits `bi` and depth `za` joins its neighbour with `bo` and
+    /// `zb` (`same`, `linear`: the bits of the edge's axis, read from the neighbour's side).
+    #[inline(always)]
+    fn joins(&self, bo: u8, bi: u8, za: f32, zb: f32, same: u8, linear: u8) -> bool {
+        let step = (za - zb).abs() < self.depth_tol * 0.5 * (za + zb) * self.pixel_angle;
+        let surface = ((bo | bi) & linear != 0) | step;
+        let background = bo & bi & BACKGROUND != 0;
+        if bo & same != 0 { surface } else { background }
+    }
+
+    /// Row `y`'s `JOIN_LEFT` and `JOIN_UP` bits from the rule bits of rows `y − 1` and `y`.
+    fn join_row(&self, y: usize, bits: &[Vec<u8>; 2], out: &mut [u8]) {
+        let w = self.g.width;
+        let (above, here) = (&bits[0][..w], &bits[1][..w]);
+        let z = &self.g.depth[y * w..(y + 1) * w];
+        out[0] = 0;
+        for x in 1..w {
+            let left = self.joins(here[x - 1], here[x], z[x], z[x - 1], SAME_RIGHT, LINEAR_X);
+            out[x] = u8::from(left) * JOIN_LEFT;
+        }
+        if y > 0 {
+            let za = &self.g.depth[(y - 1) * w..y * w];
+            for x in 0..w {
+                let up = self.joins(above[x], here[x], z[x], za[x], SAME_DOWN, LINEAR_Y);
+                out[x] |= u8::from(up) * JOIN_UP;
+            }
+        }
     }
 }
 
-/// The root of `i`, read-only: used after the strips are flattened, when trees are shallow, so
-/// the final lookup can run in parallel.
-fn root_of(parent: &[u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        i = parent[i as usize];
-    }
-    i
-}
-
-/// The root of `i`, halving the path on the way (within a strip).
+/// The root of `i`, halving the path on the way.
 fn find(parent: &mut [u32], mut i: u32) -> u32 {
     while parent[i as usize] != i {
         let p = parent[i as usize];
@@ -177,19 +203,99 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
     i
 }
 
-/// Join the sets of `a` and `b`; the smaller root index stays the root. Seams pass
-/// `compress = false` so that every pixel keeps pointing at its strip root.
-fn union(parent: &mut [u32], a: u32, b: u32, compress: bool) {
-    let (ra, rb) = if compress {
-        (find(parent, a), find(parent, b))
-    } else {
-        (root_of(parent, a), root_of(parent, b))
-    };
-    if ra < rb {
-        parent[rb as usize] = ra;
-    } else if rb < ra {
-        parent[ra as usize] = rb;
+/// Join the sets of `a` and `b` and return the root; the smaller root index stays the root, so
+/// every entry points at a smaller or equal index.
+fn union(parent: &mut [u32], a: u32, b: u32) -> u32 {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    let (root, other) = if ra < rb { (ra, rb) } else { (rb, ra) };
+    parent[other as usize] = root;
+    root
+}
+
+/// Replace every entry of a union-find forest whose entries point at smaller or equal indices
+/// by its set's number, sets numbered in order of their smallest index; returns the count.
+/// In index order each entry's parent is already numbered, so no path is followed.
+fn number_sets(parent: &mut [u32]) -> u32 {
+    let mut count = 0;
+    for i in 0..parent.len() {
+        let p = parent[i] as usize;
+        parent[i] = if p == i {
+            count += 1;
+            count - 1
+        } else {
+            parent[p]
+        };
     }
+    count
+}
+
+/// One strip's labelling: `local` (its rows) gets each pixel's strip-local set number, sets
+/// numbered in raster order of their first pixel; returns the number of sets and the strip's
+/// first row's `JOIN_UP` bits, for the seam with the strip above.
+fn label_strip(rule: &Rule, y0: usize, local: &mut [u32]) -> (u32, Vec<u8>) {
+    let (w, h) = (rule.g.width, rule.g.height);
+    let y1 = y0 + local.len() / w;
+    let mut surf = [vec![0u8; w], vec![0u8; w]];
+    let mut q = [vec![0f32; w], vec![0f32; w], vec![0f32; w]];
+    let mut bits = [vec![0u8; w], vec![0u8; w]];
+    let mut joins = vec![0u8; w];
+    let mut seam = Vec::new();
+    // The row above the strip, for its rule bits (the joins of the strip's first row read them).
+    let first = y0.saturating_sub(1);
+    if first > 0 {
+        rule.surface_row(first - 1, &mut surf[0]);
+        rule.inverse_row(first - 1, &mut q[0]);
+    }
+    rule.surface_row(first, &mut surf[1]);
+    rule.inverse_row(first, &mut q[1]);
+    if first + 1 < h {
+        rule.inverse_row(first + 1, &mut q[2]);
+    }
+    for y in first..y1 {
+        bits.swap(0, 1);
+        rule.rule_row(y, &surf, &q, &mut bits[1]);
+        if y + 1 < y1 {
+            surf.swap(0, 1);
+            rule.surface_row(y + 1, &mut surf[1]);
+            q.rotate_left(1);
+            if y + 2 < h {
+                rule.inverse_row(y + 2, &mut q[2]);
+            }
+        }
+        if y < y0 {
+            continue;
+        }
+        rule.join_row(y, &bits, &mut joins);
+        if y == y0 {
+            seam = joins.iter().map(|j| j & JOIN_UP).collect();
+        }
+        // A pixel joining a neighbour takes that neighbour's parent (an ancestor with a
+        // smaller index, so the smallest index stays the root); only a pixel joining both
+        // neighbours may have to merge two sets. The left neighbour's entry is carried in
+        // `left` rather than read back from `local`, so that a row is no chain of stores and
+        // loads; after a merge it is the merged root.
+        let row = (y - y0) * w;
+        let mut left = 0;
+        for (x, &j) in joins.iter().enumerate() {
+            let i = row + x;
+            let up = y > y0 && j & JOIN_UP != 0;
+            left = match (j & JOIN_LEFT != 0, up) {
+                (false, false) => i as u32,
+                (true, false) => left,
+                (false, true) => local[i - w],
+                (true, true) => {
+                    let u = local[i - w];
+                    if left != u {
+                        union(local, left, u)
+                    } else {
+                        left
+                    }
+                }
+            };
+            local[i] = left;
+        }
+    }
+    (number_sets(local), seam)
 }
 
 /// Label the segments of a G-buffer.
@@ -202,71 +308,48 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
             count: 0,
         };
     }
+    assert!(
+        u32::try_from(n).is_ok(),
+        "{w}×{h} pixels: too many to label"
+    );
     let rule = Rule::new(g, p);
-    // Strips of whole rows; within a strip, parent indices are strip-local.
+    // Strips of whole rows, each labelled on its own with strip-local set numbers.
     let strip_rows = h.div_ceil(rayon::current_num_threads() * 4).max(1);
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    parent
+    let mut labels = vec![0u32; n];
+    let strips: Vec<(u32, Vec<u8>)> = labels
         .par_chunks_mut(strip_rows * w)
         .enumerate()
-        .for_each(|(s, local)| {
-            let y0 = s * strip_rows;
-            let base = y0 * w;
+        .map(|(s, local)| label_strip(&rule, s * strip_rows, local))
+        .collect();
+    // The strips' sets, numbered strip after strip, are in raster order of their first pixel;
+    // joining them across the seams (the smaller number stays the root) and numbering the
+    // roots in order numbers the segments by their first pixel.
+    let mut offset = Vec::with_capacity(strips.len());
+    let mut sets = 0u32;
+    for (count, _) in &strips {
+        offset.push(sets);
+        sets += count;
+    }
+    let mut parent: Vec<u32> = (0..sets).collect();
+    for (s, (_, seam)) in strips.iter().enumerate().skip(1) {
+        let below = s * strip_rows * w;
+        for (x, &j) in seam.iter().enumerate() {
+            if j & JOIN_UP != 0 {
+                let a = offset[s] + labels[below + x];
+                let b = offset[s - 1] + labels[below - w + x];
+                union(&mut parent, a, b);
+            }
+        }
+    }
+    let count = number_sets(&mut parent);
+    labels
+        .par_chunks_mut(strip_rows * w)
+        .zip(&offset)
+        .for_each(|(local, &offset)| {
             local
                 .iter_mut()
-                .enumerate()
-                .for_each(|(i, v)| *v = i as u32);
-            // A pixel joining a neighbour takes that neighbour's parent (an ancestor with a
-            // smaller index, so the smallest index stays the root); only a pixel joining both
-            // neighbours may have to merge two sets.
-            for ly in 0..local.len() / w {
-                for x in 0..w {
-                    let i = ly * w + x;
-                    let left = x > 0 && rule.joins(base + i, 1);
-                    let up = ly > 0 && rule.joins(base + i, w);
-                    match (left, up) {
-                        (false, false) => {}
-                        (true, false) => local[i] = local[i - 1],
-                        (false, true) => local[i] = local[i - w],
-                        (true, true) => {
-                            local[i] = local[i - 1];
-                            if local[i - 1] != local[i - w] {
-                                union(local, (i - 1) as u32, (i - w) as u32, true);
-                            }
-                        }
-                    }
-                }
-            }
-            // Flatten and make global: every entry then points straight at its strip root.
-            for i in 0..local.len() {
-                let r = find(local, i as u32);
-                local[i] = r;
-            }
-            local.iter_mut().for_each(|v| *v += base as u32);
+                .for_each(|l| *l = parent[(offset + *l) as usize]);
         });
-    for y in (strip_rows..h).step_by(strip_rows) {
-        for x in 0..w {
-            let i = y * w + x;
-            if rule.joins(i, w) {
-                union(&mut parent, i as u32, (i - w) as u32, false);
-            }
-        }
-    }
-    // Roots are the smallest index of their segment, so numbering roots in index order numbers
-    // segments by their first pixel.
-    let mut id_of_root = vec![u32::MAX; n];
-    let mut count = 0u32;
-    for i in 0..n {
-        if parent[i] == i as u32 {
-            id_of_root[i] = count;
-            count += 1;
-        }
-    }
-    // After the seams, a pixel's strip root may point into an earlier strip: follow it.
-    let labels = (0..n as u32)
-        .into_par_iter()
-        .map(|i| id_of_root[root_of(&parent, i) as usize])
-        .collect();
     Segments {
         labels,
         count: count as usize,
@@ -276,6 +359,7 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::mix64;
 
     /// The segmentation of a hand-made G-buffer with the test parameters.
     fn segment_of(
@@ -444,5 +528,126 @@ mod tests {
                 .enumerate()
                 .all(|(i, &l)| l == u32::from(matid[i] == 2.0))
         );
+    }
+
+    /// The rule read straight off the module docs, one edge at a time, and a flood fill that
+    /// numbers segments by their first pixel: what the strips, the row buffers and the seams
+    /// must reproduce.
+    fn flood_fill(g: &GBuffer, p: &SegmentParams) -> Vec<u32> {
+        let (w, h) = (g.width, g.height);
+        let pixel_angle = (2.0 * ((p.fov_y as f64).to_radians() * 0.5).tan() / h as f64) as f32;
+        let bg = |i: usize| !g.depth[i].is_finite() || g.matid[i] < 0.0;
+        let same = |a: usize, b: usize| {
+            let (na, nb) = (g.normal[a], g.normal[b]);
+            let dn2 = (na[0] - nb[0]).powi(2) + (na[1] - nb[1]).powi(2) + (na[2] - nb[2]).powi(2);
+            !bg(a) && !bg(b) && g.matid[a] == g.matid[b] && dn2 < p.normal_tol * p.normal_tol
+        };
+        // Pixel `i` with neighbours `i ± step` along the axis (`inside`: both exist).
+        let linear = |i: usize, step: usize, inside: bool| {
+            let q = |j: usize| 1.0 / g.depth[j];
+            inside
+                && same(i - step, i)
+                && same(i, i + step)
+                && ((q(i + step) - q(i)) - (q(i) - q(i - step))).abs()
+                    < p.depth_tol * pixel_angle * q(i)
+        };
+        let lin = |i: usize, horizontal: bool| {
+            let (x, y) = (i % w, i / w);
+            if horizontal {
+                linear(i, 1, x > 0 && x + 1 < w)
+            } else {
+                linear(i, w, y > 0 && y + 1 < h)
+            }
+        };
+        let joins = |a: usize, b: usize, horizontal: bool| {
+            if bg(a) || bg(b) {
+                return bg(a) && bg(b);
+            }
+            let (za, zb) = (g.depth[a], g.depth[b]);
+            same(a, b)
+                && ((za - zb).abs() < p.depth_tol * 0.5 * (za + zb) * pixel_angle
+                    || lin(a, horizontal)
+                    || lin(b, horizontal))
+        };
+        let mut labels = vec![u32::MAX; w * h];
+        let mut count = 0;
+        for start in 0..w * h {
+            if labels[start] != u32::MAX {
+                continue;
+            }
+            labels[start] = count;
+            let mut stack = vec![start];
+            while let Some(i) = stack.pop() {
+                let (x, y) = (i % w, i / w);
+                let near = [
+                    (x > 0).then(|| (i - 1, true)),
+                    (x + 1 < w).then(|| (i + 1, true)),
+                    (y > 0).then(|| (i - w, false)),
+                    (y + 1 < h).then(|| (i + w, false)),
+                ];
+                for (j, horizontal) in near.into_iter().flatten() {
+                    if labels[j] == u32::MAX && joins(i, j, horizontal) {
+                        labels[j] = count;
+                        stack.push(j);
+                    }
+                }
+            }
+            count += 1;
+        }
+        labels
+    }
+
+    #[test]
+    fn random_gbuffers_match_a_flood_fill() {
+        // Slanted planes (1/z linear in x and y) in a few materials, with normals near two
+        // directions, depth steps and background, at sizes from one pixel to more rows than
+        // strips and fewer.
+        let mut seed = 0u64;
+        let mut next = || {
+            seed += 1;
+            (mix64(seed) >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for (w, h) in [
+            (1, 1),
+            (1, 7),
+            (9, 1),
+            (2, 2),
+            (7, 5),
+            (13, 40),
+            (31, 23),
+            (64, 9),
+        ] {
+            for _ in 0..4 {
+                let n = w * h;
+                let (a, b) = (next() * 0.02, next() * 0.05);
+                let (mut depth, mut normal, mut matid) =
+                    (vec![0.0; n], vec![[0.0; 3]; n], vec![0.0; n]);
+                for i in 0..n {
+                    let (x, y) = ((i % w) as f32, (i / w) as f32);
+                    let r = next();
+                    let id = (next() * 1.3) as u32;
+                    matid[i] = if r < 0.05 { -1.0 } else { id as f32 };
+                    depth[i] = match r {
+                        r if r < 0.08 => f32::INFINITY,
+                        r if r < 0.12 => 5.0 + 3.0 * next(),
+                        _ => 1.0 / (0.2 + a * x + b * y),
+                    };
+                    let t = if next() < 0.1 { 0.3 } else { 0.02 * next() };
+                    normal[i] = [t, 0.0, -1.0];
+                }
+                let g = GBuffer {
+                    width: w,
+                    height: h,
+                    depth: &depth,
+                    normal: &normal,
+                    matid: &matid,
+                };
+                let p = params();
+                let want = flood_fill(&g, &p);
+                let s = segment(&g, &p);
+                assert_eq!(s.labels, want, "{w}×{h}");
+                assert_eq!(s.count, want.iter().max().map_or(0, |&m| m as usize + 1));
+            }
+        }
     }
 }

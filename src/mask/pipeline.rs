@@ -285,8 +285,14 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
     let gate = if p.paper {
         None
     } else {
-        let mean_y = input.luminance.par_iter().map(|&y| y as f64).sum::<f64>()
-            / input.luminance.len() as f64;
+        // Fixed chunks summed in order: rayon's own sum splits by thread count, and the floor
+        // must not depend on it.
+        let chunk_sums: Vec<f64> = input
+            .luminance
+            .par_chunks(PIXEL_CHUNK)
+            .map(|c| c.iter().map(|&y| y as f64).sum())
+            .collect();
+        let mean_y = chunk_sums.iter().sum::<f64>() / input.luminance.len() as f64;
         let floor = p.min_level * mean_y as f32;
         spike_gate(&noise, &mut weight, &segments, p.contrast, p.tail, floor)
     };

@@ -2,6 +2,7 @@
 //! A library of small modules with thin binaries in `src/bin/`; see DESIGN.md for the contracts.
 
 pub mod accel;
+pub mod alloc;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;
@@ -31,3 +32,7 @@ pub mod signal;
 pub mod study;
 
 pub use error::{Error, Result};
+
+/// Every tool, test and benchmark allocates through it (see `alloc`).
+#[global_allocator]
+static GLOBAL: alloc::HugePageAlloc = alloc::HugePageAlloc;

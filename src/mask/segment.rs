@@ -100,7 +100,7 @@ impl<'a> Rule<'a> {
         let (g, w, h) = (self.g, self.g.width, self.g.height);
         let tol2 = self.normal_tol * self.normal_tol;
         let background = |z: f32, m: f32| !z.is_finite() | (m < 0.0);
-        // `GBuffer::same_surface` of two pixels, for the other one not background.
+        // One surface: equal ids, normals closer than `normal_tol`, the other pixel not background.
         let same = |ma: f32, mb: f32, na: [f32; 3], nb: [f32; 3], zb: f32| {
             let dn2 = (na[0] - nb[0]).powi(2) + (na[1] - nb[1]).powi(2) + (na[2] - nb[2]).powi(2);
             !background(zb, mb) & (ma == mb) & (dn2 < tol2)

@@ -9,30 +9,44 @@
 use rayon::prelude::*;
 
 const BINS: usize = 1 << 16;
-const PAR_CHUNK: usize = 1 << 18;
+/// Bins per parallel part of the merge.
+const MERGE_CHUNK: usize = 1 << 12;
 
 /// `count` histograms of `BINS` bins side by side, filled by `add(histograms, bits)` for each
-/// value. Rayon folds the chunks into one set per split of the work (about one per thread), not
-/// one per chunk: each set costs a zeroing and a merge of `count × BINS` counters.
-fn histograms(values: &[f32], count: usize, add: impl Fn(&mut [u64], u32) + Sync) -> Vec<u64> {
-    values
-        .par_chunks(PAR_CHUNK)
-        .fold(
-            || vec![0u64; count * BINS],
-            |mut h, chunk| {
-                for v in chunk {
-                    add(&mut h, v.to_bits());
-                }
-                h
-            },
-        )
-        .reduce(
-            || vec![0u64; count * BINS],
-            |mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                a
-            },
-        )
+/// value: one set of 32-bit counters per thread's share of the values, then summed in parallel
+/// over the bins. (Rayon's adaptive fold made a set of 64-bit counters per split, each zeroed and
+/// merged in turn: the step scaled 1.44× on two threads.)
+fn histograms(values: &[f32], count: usize, add: impl Fn(&mut [u32], u32) + Sync) -> Vec<u64> {
+    let parts = rayon::current_num_threads().max(1);
+    let part = values.len().div_ceil(parts).max(1);
+    assert!(
+        u32::try_from(part).is_ok(),
+        "{} values: too many",
+        values.len()
+    );
+    let sets: Vec<Vec<u32>> = values
+        .par_chunks(part)
+        .map(|share| {
+            let mut h = vec![0u32; count * BINS];
+            for v in share {
+                add(&mut h, v.to_bits());
+            }
+            h
+        })
+        .collect();
+    let mut total = vec![0u64; count * BINS];
+    total
+        .par_chunks_mut(MERGE_CHUNK)
+        .enumerate()
+        .for_each(|(i, out)| {
+            for set in &sets {
+                let from = &set[i * MERGE_CHUNK..i * MERGE_CHUNK + out.len()];
+                out.iter_mut()
+                    .zip(from)
+                    .for_each(|(t, &c)| *t += u64::from(c));
+            }
+        });
+    total
 }
 
 /// Walk a histogram from the top: the bin holding the value of descending rank `rank`

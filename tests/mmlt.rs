@@ -225,7 +225,6 @@ fn masked(scene: &str, mpp: &str, seeds: &[&str]) {
     let regions = [("α = 1", 1.0f32), ("α = ε", eps)];
     // got / want per region and channel, summed over seeds.
     let mut ratio = [[0.0f64; 3]; 2];
-    let mut img = None;
     for seed in seeds {
         let out = dir.join(&format!("mcmc-{seed}.exr"));
         let mask_arg = mask_path.to_str().unwrap();
@@ -237,8 +236,13 @@ fn masked(scene: &str, mpp: &str, seeds: &[&str]) {
             "--seed",
             seed,
         ];
-        let this = mmlt(&fixture(scene), &out, &args);
-        let rgb = this.require_rgb(["R", "G", "B"]).unwrap();
+        let img = mmlt(&fixture(scene), &out, &args);
+        assert_eq!(img.text_attr("mixmc.mask").as_deref(), Some(mask_arg));
+        assert_eq!(
+            img.text_attr("mixmc.mask_hash"),
+            Some(mixmc::fingerprint::alpha_hash(w, h, &alpha))
+        );
+        let rgb = img.require_rgb(["R", "G", "B"]).unwrap();
         for (r, &(_, a)) in regions.iter().enumerate() {
             for c in 0..3 {
                 let (mut got, mut want) = (0.0f64, 0.0f64);
@@ -249,7 +253,6 @@ fn masked(scene: &str, mpp: &str, seeds: &[&str]) {
                 ratio[r][c] += got / want;
             }
         }
-        img = Some(this);
     }
     for ((region, _), sums) in regions.iter().zip(&ratio) {
         for (c, sum) in sums.iter().enumerate() {
@@ -260,15 +263,6 @@ fn masked(scene: &str, mpp: &str, seeds: &[&str]) {
             );
         }
     }
-    let img = img.unwrap();
-    assert_eq!(
-        img.text_attr("mixmc.mask").as_deref(),
-        Some(mask_path.to_str().unwrap())
-    );
-    assert_eq!(
-        img.text_attr("mixmc.mask_hash"),
-        Some(mixmc::fingerprint::alpha_hash(w, h, &alpha))
-    );
 }
 
 #[test]

@@ -460,15 +460,30 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
     }
 }
 
-/// Share of a `--time` budget that the estimate of b may take before it stops adding passes.
-const B_TIME_SHARE: f64 = 0.1;
-
-/// Share of a `--time` budget that the bootstrap may take before it stops adding samples:
-/// 100 000 samples of each of 11 depths take ~2 s on two cores, which a short budget (the main
-/// job's MMLT part of a 6-s run) cannot spare.
-const BOOT_TIME_SHARE: f64 = 0.1;
+/// Share of a `--time` budget that each start-up phase (the estimate of b, the bootstrap) may
+/// take: 100 000 bootstrap samples of each of 11 depths take ~1.3 s on two cores, which a short
+/// budget (the main job's MMLT part of a 6-s run) cannot spare.
+const STARTUP_SHARE: f64 = 0.1;
 /// Bootstrap samples per depth per parallel batch; the time share is checked between batches.
 const BOOT_BATCH: usize = 2000;
+
+/// Whether a start-up phase begun at `start`, with `done` units of work made, stops before the
+/// `next` ones: after Ctrl-C, or when at its mean rate so far they would take it past
+/// [`STARTUP_SHARE`] of a time budget. The first units are always made.
+fn startup_over(budget: Budget, start: Instant, done: usize, next: usize) -> bool {
+    if done == 0 {
+        return false;
+    }
+    if signal::interrupted() {
+        return true;
+    }
+    match budget {
+        Budget::Seconds(t) => {
+            start.elapsed().as_secs_f64() * (done + next) as f64 / done as f64 > STARTUP_SHARE * t
+        }
+        Budget::Passes(_) => false,
+    }
+}
 
 /// The sampler id of bootstrap sample `i` of depth slot `slot`: samples are made batch by batch
 /// for all depths at once, so ids interleave the depths and do not depend on how many samples
@@ -480,7 +495,7 @@ fn boot_id(i: usize, slot: usize, depths: usize) -> u64 {
 /// The bootstrap: independent samples of every rendered depth whose weights pick the chains'
 /// starting states (∝ weight, so that they start in the stationary law). Returns the weights,
 /// depth by depth, and the samples per depth: `s.bootstrap`, or fewer (whole batches, at least
-/// one) when a time budget's share [`BOOT_TIME_SHARE`] runs out or after Ctrl-C.
+/// one) when [`startup_over`].
 fn bootstrap(
     scene: &Scene,
     alpha: Option<&[f32]>,
@@ -492,25 +507,22 @@ fn bootstrap(
     let mut per_depth: Vec<Vec<f32>> = vec![Vec::new(); nd];
     let mut done = 0;
     while done < target {
-        if done > 0 && signal::interrupted() {
+        let batch = BOOT_BATCH.min(target - done);
+        if startup_over(s.budget, start, done, batch) {
             break;
         }
-        let batch = BOOT_BATCH.min(target - done);
-        if let Budget::Seconds(t) = s.budget {
-            let spent = start.elapsed().as_secs_f64();
-            if done > 0 && spent * (done + batch) as f64 / done as f64 > BOOT_TIME_SHARE * t {
-                break;
-            }
-        }
-        let ys: Vec<f32> = (done..done + batch)
+        // Sample `i` of slot `slot` is id boot_id(i, slot): the batch's ids are one range.
+        let ys: Vec<f32> = (done * nd..(done + batch) * nd)
             .into_par_iter()
-            .flat_map_iter(|i| {
-                depths.iter().enumerate().map(move |(slot, &depth)| {
-                    let id = boot_id(i, slot, nd);
-                    let mut sampler = MltSampler::new(s.seed, id, id, s.sigma, s.large_step);
-                    evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth)).y
-                })
-            })
+            .map_init(
+                || Scratch::new(s.max_depth),
+                |scratch, id| {
+                    let depth = depths[id % nd];
+                    let mut sampler =
+                        MltSampler::new(s.seed, id as u64, id as u64, s.sigma, s.large_step);
+                    evaluate(scene, &mut sampler, depth, alpha, scratch).y
+                },
+            )
             .collect();
         for (k, y) in ys.into_iter().enumerate() {
             per_depth[k % nd].push(y);
@@ -520,10 +532,9 @@ fn bootstrap(
     (per_depth.concat(), done)
 }
 
-/// Each rendered depth's b_d, the mean over the film of Y(α·I_d), from `s.b_spp` BPT passes (under
-/// a time budget, fewer if they would take more than [`B_TIME_SHARE`] of it, or after Ctrl-C; at
-/// least one), and
-/// the number of passes made. Rows are summed in order, so the estimate does not depend on threads.
+/// Each rendered depth's b_d, the mean over the film of Y(α·I_d), from `s.b_spp` BPT passes
+/// (fewer, at least one, when [`startup_over`]), and the number of passes made. Rows are summed
+/// in order, so the estimate does not depend on threads.
 fn normalisation(
     scene: &Scene,
     alpha: Option<&[f32]>,
@@ -536,15 +547,8 @@ fn normalisation(
     let mut sums = vec![0.0f64; depths.len()];
     let mut passes = 0;
     while passes < s.b_spp {
-        if passes > 0 && signal::interrupted() {
+        if startup_over(s.budget, start, passes as usize, 1) {
             break;
-        }
-        if let Budget::Seconds(t) = s.budget {
-            // Stop before a pass that would, at the mean pass time so far, overrun the share.
-            let spent = start.elapsed().as_secs_f64();
-            if passes > 0 && spent * (passes + 1) as f64 / passes as f64 > B_TIME_SHARE * t {
-                break;
-            }
         }
         let rows: Vec<Vec<f64>> = (0..h)
             .into_par_iter()

@@ -31,11 +31,10 @@ pub fn connect(
     strategies: Strategies,
 ) -> Option<Connection> {
     debug_assert!(t >= 1 && t <= cam.len() && s <= light.len() && s + t >= 2);
+    // Only the camera vertex is not on a surface, and t = 1 ends there.
+    let pt = &cam[t - 1];
+    debug_assert_eq!(pt.kind == Kind::Camera, t == 1);
     if s == 0 {
-        let pt = &cam[t - 1];
-        if pt.kind != Kind::Surface {
-            return None;
-        }
         let value = pt.beta * scene.le(pt.tri, pt.wo);
         if value == Rgb::ZERO || !value.is_finite() {
             return None;
@@ -43,11 +42,10 @@ pub fn connect(
         let weight = mis_weight(scene, light, cam, 0, t, None, strategies);
         return weighted(value, weight, None);
     }
-    let pt = &cam[t - 1];
     // s = 1 samples the light point afresh (next-event estimation).
     let l0;
     let (qs, sampled) = if s == 1 && t > 1 {
-        if pt.delta || pt.kind != Kind::Surface || scene.lights.is_empty() {
+        if pt.delta || scene.lights.is_empty() {
             return None;
         }
         let (u_sel, u) = (sampler.next_1d(), sampler.next_2d());
@@ -56,7 +54,7 @@ pub fn connect(
     } else {
         (&light[s - 1], None)
     };
-    if qs.delta || pt.delta || (t > 1 && pt.kind != Kind::Surface) {
+    if qs.delta || pt.delta {
         return None;
     }
     let d = qs.p - pt.p;

@@ -175,7 +175,7 @@ fn main() -> ExitCode {
             src.text_attr("mixmc.scene"),
         );
         out.set_text(COMMAND_ATTR, command_line());
-        out.write(&args.output, false)?;
+        out.into_file(&args.output, false)?;
         let switch_note = if mask.switched {
             format!(
                 "; above --switch {}: MCMC only, alpha = 1 everywhere",

@@ -162,16 +162,18 @@ pub fn mis_weight(
         (pf_h, pl_h, delta_h) = (vec![0.0f32; n], vec![0.0f32; n], vec![false; n]);
         (&mut pf_h, &mut pl_h, &mut delta_h)
     };
-    for i in 0..n {
-        let v = vert(i);
-        if i < t {
-            pf[i] = v.pdf_fwd;
-            pl[i] = v.pdf_rev;
-        } else {
-            pf[i] = v.pdf_rev;
-            pl[i] = v.pdf_fwd;
-        }
-        delta[i] = v.delta;
+    // Camera vertices in order, then the light sub-path reversed (its first vertex, if sampled
+    // afresh, replaced): two straight loops instead of a branch per vertex.
+    for (i, v) in cam[..t].iter().enumerate() {
+        (pf[i], pl[i], delta[i]) = (v.pdf_fwd, v.pdf_rev, v.delta);
+    }
+    for (k, v) in light[..s].iter().enumerate() {
+        let v = match (k, sampled) {
+            (0, Some(l0)) => l0,
+            _ => v,
+        };
+        let i = n - 1 - k;
+        (pf[i], pl[i], delta[i]) = (v.pdf_rev, v.pdf_fwd, v.delta);
     }
     // The last vertex lies on a light: what matters there is the (non-delta) area emission.
     delta[n - 1] = false;

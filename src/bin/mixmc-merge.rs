@@ -37,15 +37,16 @@ fn main() -> ExitCode {
             .collect::<mixmc::Result<Vec<_>>>()?;
         let mut out = merge(&images)?;
         out.set_text(COMMAND_ATTR, command_line());
-        out.write(&args.output, args.half)?;
         let key = weight_attr(&out.text_attr("mixmc.tool").unwrap_or_default());
-        println!(
+        let summary = format!(
             "{}: {} files, {key} {}, seeds {}",
             args.output.display(),
             images.len(),
             out.float_attr(key).unwrap_or(0.0),
             out.text_attr("mixmc.seed").unwrap_or_default()
         );
+        out.into_file(&args.output, args.half)?;
+        println!("{summary}");
         Ok(ExitCode::SUCCESS)
     })
 }

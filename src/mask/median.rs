@@ -3,16 +3,20 @@
 //! `np.pad(mode="edge")` and OpenCV's `BORDER_REPLICATE` do.
 //!
 //! Why a generated network: a median of 49 floats per pixel by `select_nth_unstable` costs
-//! hundreds of unpredictable branches per pixel. Instead each output row is computed
+//! hundreds of unpredictable branches per pixel. Instead output rows are computed in pairs,
 //! branch-free:
-//! 1. each column of the w input rows is sorted once (a small sorting network on whole row
-//!    slices, which the compiler vectorises) and shared by the w windows that contain it;
-//! 2. pairs of horizontally adjacent medians are selected from their w + 1 sorted columns by the
-//!    pruned min/max network of `median_net.rs` (184 operations per pixel for w = 7, 80 for
-//!    w = 5), which `build.rs` turns into straight-line code: the compiler keeps its values in
-//!    registers, where an interpreted network spends two loads and a store on each operation;
-//! 3. with AVX (detected at run time; the build targets baseline x86-64) eight pairs run at
-//!    once, one per lane; otherwise, and for the last pairs of a row, one pair at a time.
+//! 1. each column of the w − 1 input rows that both output rows' windows hold is sorted once (a
+//!    small sorting network on whole row slices, which the compiler vectorises) and shared by
+//!    the 2w windows that contain it;
+//! 2. 2×2 tiles of medians are selected from their w + 1 columns (sorted middle rows, plus the
+//!    top and the bottom row's values) by the pruned min/max network of `median_net.rs` (163.5
+//!    operations per pixel for w = 7, 75.5 for w = 5), which `build.rs` turns into straight-line
+//!    code: the compiler keeps its values in registers, where an interpreted network spends two
+//!    loads and a store on each operation. An odd last row takes the network for pairs of
+//!    adjacent medians in one row (184 and 80 operations per pixel) over columns of w sorted
+//!    values. Tiles instead of pairs made the 7×7 filter 35% faster (BENCHMARKS.md, "Mask");
+//! 3. with AVX (detected at run time) eight tiles or pairs run at once, one per lane;
+//!    otherwise, and for the last ones of a row, one at a time.
 //!
 //! Both kernels use `min(a, b) = if a < b { a } else { b }` (and `max` alike), which is what
 //! the AVX instructions compute, so they agree bit for bit, signed zeros and infinities
@@ -99,17 +103,22 @@ impl MedianNetwork {
         if src.is_empty() {
             return dst;
         }
-        dst.par_chunks_mut(width).enumerate().for_each_init(
+        // Rows in pairs (the tile network), an odd last row alone (the pair network).
+        dst.par_chunks_mut(2 * width).enumerate().for_each_init(
             || RowScratch::new(self.w, width),
-            |s, (y, out)| {
-                match kernel {
-                    Kernel::Scalar => row_scalar(self.w, src, height, y, s, out),
+            |s, (i, out)| {
+                let y = 2 * i;
+                match (kernel, out.len() > width) {
+                    (Kernel::Scalar, true) => tile_scalar(self.w, src, height, y, s, out),
+                    (Kernel::Scalar, false) => row_scalar(self.w, src, height, y, s, out),
                     // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
                     #[cfg(target_arch = "x86_64")]
-                    Kernel::Avx => unsafe { row_avx(self.w, src, height, y, s, out) },
+                    (Kernel::Avx, true) => unsafe { tile_avx(self.w, src, height, y, s, out) },
+                    #[cfg(target_arch = "x86_64")]
+                    (Kernel::Avx, false) => unsafe { row_avx(self.w, src, height, y, s, out) },
                 }
                 if diff {
-                    for (o, &v) in out.iter_mut().zip(&src[y * width..(y + 1) * width]) {
+                    for (o, &v) in out.iter_mut().zip(&src[y * width..]) {
                         *o = (v - *o).abs();
                     }
                 }
@@ -119,8 +128,8 @@ impl MedianNetwork {
     }
 }
 
-/// Per-thread buffers: the w padded input rows of one output row, and the same split by
-/// parity and column-sorted.
+/// Per-thread buffers: the padded input rows of one output row (w) or of two (w + 1), and the
+/// same split by parity and column-sorted.
 struct RowScratch {
     /// Length of one parity half of a row: the pairs plus the farthest reach past them of any
     /// window size (`EXTRA`), so that an AVX step reads the same span for every size.
@@ -134,31 +143,61 @@ impl RowScratch {
         let half = width.div_ceil(2) + EXTRA;
         RowScratch {
             half,
-            cols: vec![0.0; 2 * w * half],
-            split: vec![0.0; 2 * w * half],
+            cols: vec![0.0; 2 * (w + 1) * half],
+            split: vec![0.0; 2 * (w + 1) * half],
         }
     }
 }
 
-/// Fill `s.split` for output row `y`: the w clamped input rows, padded left and right with
-/// their edge pixels, split by parity (`split[p][r][m]` = padded row r's value 2m + p, so that
-/// lane i of a kernel, computing the pixels 2i and 2i + 1, reads consecutive values), each
-/// parity's columns sorted ascending.
+/// Fill `s.split` for output row `y` (the pair network): the w clamped input rows around it,
+/// padded left and right with their edge pixels, split by parity (`split[p][r][m]` = padded row
+/// r's value 2m + p, so that lane i of a kernel, computing the pixels 2i and 2i + 1, reads
+/// consecutive values), each parity's columns sorted ascending.
 #[inline(always)]
 fn prepare(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
+    split_rows(w, src, height, y, 0..w, s);
+    for parity in s.split.chunks_mut(w * s.half).take(2) {
+        sort_columns(parity, s.half, w);
+    }
+}
+
+/// Fill `s.split` for output rows `y` and `y + 1` (the tile network): per parity the w − 1 input
+/// rows both windows hold, column-sorted, then the top window's first row and the bottom
+/// window's last, as `Network::tile` numbers its leaves.
+#[inline(always)]
+fn prepare_tile(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
+    split_rows(w, src, height, y, (1..w).chain([0, w]), s);
+    for parity in s.split.chunks_mut((w + 1) * s.half).take(2) {
+        sort_columns(parity, s.half, w - 1);
+    }
+}
+
+/// The clamped input rows `y − w/2 + r` for `r` in `rows`, padded with their edge pixels, into
+/// `s.split` by parity, in the order given.
+#[inline(always)]
+fn split_rows(
+    w: usize,
+    src: &[f32],
+    height: usize,
+    y: usize,
+    rows: impl Iterator<Item = usize> + Clone,
+    s: &mut RowScratch,
+) {
     let (h, half) = (w / 2, s.half);
     let width = src.len() / height;
-    for (r, padded) in s.cols.chunks_mut(2 * half).enumerate() {
+    let n = rows.clone().count();
+    for (r, padded) in rows.zip(s.cols.chunks_mut(2 * half)) {
         let sy = (y + r).saturating_sub(h).min(height - 1);
         let row = &src[sy * width..(sy + 1) * width];
         padded[..h].fill(row[0]);
         padded[h..h + width].copy_from_slice(row);
         padded[h + width..].fill(row[width - 1]);
     }
-    let (even, odd) = s.split.split_at_mut(w * half);
+    let (even, odd) = s.split[..2 * n * half].split_at_mut(n * half);
     for ((padded, e), o) in s
         .cols
         .chunks(2 * half)
+        .take(n)
         .zip(even.chunks_mut(half))
         .zip(odd.chunks_mut(half))
     {
@@ -166,9 +205,6 @@ fn prepare(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
             *e = pair[0];
             *o = pair[1];
         }
-    }
-    for parity in s.split.chunks_mut(w * half) {
-        sort_columns(parity, half, w);
     }
 }
 
@@ -219,6 +255,47 @@ fn pairs_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
             *px = right;
         }
     }
+}
+
+/// The tiles `first..` of a prepared row pair, one at a time, into `out` (the two output rows).
+#[inline(always)]
+fn tiles_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
+    let (split, half) = (&s.split[..], s.half);
+    let (top, bottom) = out.split_at_mut(out.len() / 2);
+    for m in first..top.len().div_ceil(2) {
+        // Leaf (c, r) of tile m: padded column 2m + c, row r of its parity (`prepare_tile`).
+        macro_rules! leaf {
+            ($c:literal, $r:literal) => {
+                split[($c % 2 * (w + 1) + $r) * half + m + $c / 2]
+            };
+        }
+        let [tl, tr, bl, br] = match w {
+            3 => median_tile_3!(leaf, min1, max1),
+            5 => median_tile_5!(leaf, min1, max1),
+            _ => median_tile_7!(leaf, min1, max1),
+        };
+        top[2 * m] = tl;
+        bottom[2 * m] = bl;
+        if let Some(px) = top.get_mut(2 * m + 1) {
+            *px = tr;
+        }
+        if let Some(px) = bottom.get_mut(2 * m + 1) {
+            *px = br;
+        }
+    }
+}
+
+/// Output rows `y` and `y + 1` (`out`, two rows) with the scalar tile kernel.
+fn tile_scalar(
+    w: usize,
+    src: &[f32],
+    height: usize,
+    y: usize,
+    s: &mut RowScratch,
+    out: &mut [f32],
+) {
+    prepare_tile(w, src, height, y, s);
+    tiles_scalar(w, s, 0, out);
 }
 
 /// Output row `y` with the scalar kernel.
@@ -276,22 +353,72 @@ fn pairs_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
             5 => median_pair_5!(leaf, _mm256_min_ps, _mm256_max_ps),
             _ => median_pair_7!(leaf, _mm256_min_ps, _mm256_max_ps),
         };
-        // Interleave: lane i of `left` and `right` are the pixels 2(m0 + i) and 2(m0 + i) + 1.
-        let (lo, hi) = (
-            _mm256_unpacklo_ps(left, right),
-            _mm256_unpackhi_ps(left, right),
+        store_pairs(left, right, &mut out[2 * m0..]);
+    }
+}
+
+/// Store eight pairs of pixels at the start of `out`: lane i of `left` and `right` are the
+/// pixels 2i and 2i + 1.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn store_pairs(left: __m256, right: __m256, out: &mut [f32]) {
+    let (lo, hi) = (
+        _mm256_unpacklo_ps(left, right),
+        _mm256_unpackhi_ps(left, right),
+    );
+    let dst: &mut [f32; 2 * LANES] = (&mut out[..2 * LANES]).try_into().expect("sixteen pixels");
+    // SAFETY: `dst` holds sixteen floats; the stores are unaligned.
+    unsafe {
+        _mm256_storeu_ps(dst.as_mut_ptr(), _mm256_permute2f128_ps::<0x20>(lo, hi));
+        _mm256_storeu_ps(
+            dst.as_mut_ptr().add(LANES),
+            _mm256_permute2f128_ps::<0x31>(lo, hi),
         );
-        let dst: &mut [f32; 2 * LANES] = (&mut out[2 * m0..2 * (m0 + LANES)])
-            .try_into()
-            .expect("sixteen pixels");
-        // SAFETY: `dst` holds sixteen floats; the stores are unaligned.
-        unsafe {
-            _mm256_storeu_ps(dst.as_mut_ptr(), _mm256_permute2f128_ps::<0x20>(lo, hi));
-            _mm256_storeu_ps(
-                dst.as_mut_ptr().add(LANES),
-                _mm256_permute2f128_ps::<0x31>(lo, hi),
-            );
+    }
+}
+
+/// Output rows `y` and `y + 1` (`out`, two rows) with the tile kernel: eight tiles per AVX
+/// step, the remaining ones one at a time.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn tile_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
+    prepare_tile(w, src, height, y, s);
+    let full = out.len() / 4 / LANES * LANES;
+    match w {
+        3 => tiles_avx::<3>(s, full, out),
+        5 => tiles_avx::<5>(s, full, out),
+        _ => tiles_avx::<7>(s, full, out),
+    }
+    tiles_scalar(w, s, full, out);
+}
+
+/// The tiles `0..full` (a multiple of eight) of a prepared row pair with the `W`×`W` AVX kernel.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn tiles_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
+    let (split, half) = (&s.split[..], s.half);
+    let width = out.len() / 2;
+    for m0 in (0..full).step_by(LANES) {
+        // As in `pairs_avx`, with the W + 1 rows of each parity.
+        let rows: [&[f32; REACH]; 16] = std::array::from_fn(|i| {
+            let start = if i < 2 * (W + 1) { i * half + m0 } else { m0 };
+            split[start..start + REACH]
+                .try_into()
+                .expect("REACH floats")
+        });
+        macro_rules! leaf {
+            ($c:literal, $r:literal) => {
+                load8(&rows[$c % 2 * (W + 1) + $r][$c / 2..])
+            };
         }
+        let [tl, tr, bl, br] = match W {
+            3 => median_tile_3!(leaf, _mm256_min_ps, _mm256_max_ps),
+            5 => median_tile_5!(leaf, _mm256_min_ps, _mm256_max_ps),
+            _ => median_tile_7!(leaf, _mm256_min_ps, _mm256_max_ps),
+        };
+        store_pairs(tl, tr, &mut out[2 * m0..]);
+        store_pairs(bl, br, &mut out[width + 2 * m0..]);
     }
 }
 
@@ -425,20 +552,30 @@ mod tests {
 
     #[test]
     fn network_is_small_and_its_code_complete() {
-        // The point of the pruning and the pairing: the merge phases of a 64-wire Batcher sort
-        // have 391 comparators (782 min/max); one 7×7 window alone needs 372 of them, two
-        // adjacent windows sharing six columns 184 per pixel.
-        for (w, most) in [(7, 184), (5, 80)] {
-            let net = Network::new(w);
-            let ops = net
-                .values
+        // The point of the pruning, the pairing and the tiles: the merge phases of a 64-wire
+        // Batcher sort have 391 comparators (782 min/max); one 7×7 window alone needs 372 of
+        // them, two adjacent windows sharing six columns 184 per pixel, a 2×2 tile sharing six
+        // columns and six rows 163.5 per pixel.
+        let ops = |net: &Network| {
+            net.values
                 .iter()
                 .filter(|v| matches!(v, Value::MinMax { .. }))
-                .count();
-            assert!(ops <= 2 * most, "w={w}: {ops} operations per pair");
-            // The generated code defines every value once.
-            let code = net.rust_macro("m");
-            assert_eq!(code.matches("let v").count(), net.values.len(), "w={w}");
+                .count()
+        };
+        for (w, pair, tile) in [(7, 184.0, 163.5), (5, 80.0, 75.5)] {
+            for (net, per_pixel, outputs) in
+                [(Network::new(w), pair, 2), (Network::tile(w), tile, 4)]
+            {
+                let n = ops(&net);
+                assert!(
+                    n as f64 <= per_pixel * outputs as f64,
+                    "w={w}: {n} operations for {outputs} pixels"
+                );
+                assert_eq!(net.out.len(), outputs);
+                // The generated code defines every value once.
+                let code = net.rust_macro("m");
+                assert_eq!(code.matches("let v").count(), net.values.len(), "w={w}");
+            }
         }
     }
 }

@@ -13,6 +13,10 @@
 //!    and the split the merged order makes attains it;
 //! 3. only the min/max operations the two medians depend on are kept: 184 per pixel for w = 7
 //!    (80 for w = 5), where one window at a time needs 372 (152).
+//!
+//! `Network::tile` does the same for a 2×2 tile of medians (two rows of pairs), which also
+//! share w − 1 of their rows: 163.5 operations per pixel for w = 7, and column sorts of w − 1
+//! values shared by two output rows instead of w values per row.
 
 /// Wires of the Batcher network and the size of its presorted groups (one group per column).
 const WIRES: usize = 64;
@@ -40,11 +44,11 @@ pub enum Value {
 }
 
 /// The pruned network for one window size: `values` in evaluation order, `out` the indices of
-/// the left and the right median.
+/// the medians.
 #[derive(Clone, Debug)]
 pub struct Network {
     pub values: Vec<Value>,
-    pub out: [u32; 2],
+    pub out: Vec<u32>,
 }
 
 /// Batcher's odd-even merge sort comparators for `WIRES` wires, merge phases from group size
@@ -71,63 +75,76 @@ fn batcher_merge_phases() -> Vec<(usize, usize)> {
     cmp
 }
 
-impl Network {
-    /// The network for a `w`×`w` window (odd, 3..=7).
-    pub fn new(w: usize) -> Network {
-        assert!(
-            w % 2 == 1 && (3..=7).contains(&w),
-            "median window must be odd and 3..=7"
-        );
-        let mut nodes: Vec<Node> = Vec::new();
-        let push = |nodes: &mut Vec<Node>, n: Node| {
-            nodes.push(n);
-            (nodes.len() - 1) as u32
-        };
-        // The shared columns 1..w sit in the network's first w − 1 groups.
-        let mut wires: Vec<u32> = Vec::with_capacity(WIRES);
-        for g in 0..WIRES / GROUP {
-            for r in 0..GROUP {
-                let node = if g + 1 < w && r < w {
-                    Node::Leaf {
-                        c: (g + 1) as u8,
-                        r: r as u8,
-                    }
-                } else {
-                    Node::Inf
-                };
-                wires.push(push(&mut nodes, node));
-            }
-        }
+/// Builds a network node by node; `finish` keeps what the outputs depend on.
+struct Builder {
+    nodes: Vec<Node>,
+}
+
+impl Builder {
+    fn push(&mut self, n: Node) -> u32 {
+        self.nodes.push(n);
+        (self.nodes.len() - 1) as u32
+    }
+
+    fn leaf(&mut self, c: usize, r: usize) -> u32 {
+        self.push(Node::Leaf {
+            c: c as u8,
+            r: r as u8,
+        })
+    }
+
+    /// The sorted union of at most `WIRES / GROUP` sorted groups of at most `GROUP` values, by
+    /// the merge phases of Batcher's sort (missing values are +∞, and comparators touching them
+    /// are dropped).
+    fn merge(&mut self, groups: &[Vec<u32>]) -> Vec<u32> {
+        let inf = self.push(Node::Inf);
+        let mut wires: Vec<u32> = (0..WIRES)
+            .map(|i| {
+                let (g, r) = (i / GROUP, i % GROUP);
+                groups.get(g).and_then(|g| g.get(r)).copied().unwrap_or(inf)
+            })
+            .collect();
         for (i, j) in batcher_merge_phases() {
             let (a, b) = (wires[i], wires[j]);
-            match (nodes[a as usize], nodes[b as usize]) {
+            match (self.nodes[a as usize], self.nodes[b as usize]) {
                 (_, Node::Inf) => {}
                 (Node::Inf, _) => wires.swap(i, j),
                 _ => {
-                    wires[i] = push(&mut nodes, Node::Min(a, b));
-                    wires[j] = push(&mut nodes, Node::Max(a, b));
+                    wires[i] = self.push(Node::Min(a, b));
+                    wires[j] = self.push(Node::Max(a, b));
                 }
             }
         }
-        let k = (w * w - 1) / 2;
-        let outs = [0, w].map(|c| {
-            let mut acc = wires[k];
-            for j in 1..=w {
-                let b = push(
-                    &mut nodes,
-                    Node::Leaf {
-                        c: c as u8,
-                        r: (j - 1) as u8,
-                    },
-                );
-                let term = push(&mut nodes, Node::Max(wires[k - j], b));
-                acc = push(&mut nodes, Node::Min(acc, term));
-            }
-            acc
-        });
-        // Keep only what the medians depend on, renumbered in the same order.
+        wires.truncate(groups.iter().map(Vec::len).sum());
+        wires
+    }
+
+    /// The value of rank `k` (0 = smallest) of the union of the sorted lists `a` and `b`, by
+    /// the order-statistic identity of the module docs.
+    fn kth(&mut self, a: &[u32], b: &[u32], k: usize) -> u32 {
+        let mut acc: Option<u32> = None;
+        for j in 0..=b.len() {
+            let Some(i) = (k + 1).checked_sub(j).filter(|&i| i <= a.len()) else {
+                continue;
+            };
+            let term = match (i, j) {
+                (_, 0) => a[i - 1],
+                (0, _) => b[j - 1],
+                _ => self.push(Node::Max(a[i - 1], b[j - 1])),
+            };
+            acc = Some(match acc {
+                None => term,
+                Some(acc) => self.push(Node::Min(acc, term)),
+            });
+        }
+        acc.expect("k < a.len() + b.len()")
+    }
+
+    /// The network of `outs`: only what they depend on, renumbered in the same order.
+    fn finish(self, outs: Vec<u32>) -> Network {
+        let nodes = self.nodes;
         let mut live = vec![false; nodes.len()];
-        for o in outs {
+        for &o in &outs {
             live[o as usize] = true;
         }
         for id in (0..nodes.len()).rev() {
@@ -157,14 +174,76 @@ impl Network {
         }
         Network {
             values,
-            out: outs.map(|o| index[o as usize]),
+            out: outs.iter().map(|&o| index[o as usize]).collect(),
         }
+    }
+}
+
+fn check_window(w: usize) {
+    assert!(
+        w % 2 == 1 && (3..=7).contains(&w),
+        "median window must be odd and 3..=7"
+    );
+}
+
+impl Network {
+    /// The pair network for a `w`×`w` window (odd, 3..=7): leaf (c, r) is rank r of window
+    /// column c (0..=w, each of w rows presorted); outputs the left and the right median.
+    pub fn new(w: usize) -> Network {
+        check_window(w);
+        let mut b = Builder { nodes: Vec::new() };
+        let cols: Vec<Vec<u32>> = (0..=w)
+            .map(|c| (0..w).map(|r| b.leaf(c, r)).collect())
+            .collect();
+        // The shared columns 1..w sit in the network's first w − 1 groups.
+        let shared = b.merge(&cols[1..w]);
+        let k = (w * w - 1) / 2;
+        let outs = [0, w].map(|c| b.kth(&shared, &cols[c], k)).to_vec();
+        b.finish(outs)
+    }
+
+    /// The 2×2 tile network for a `w`×`w` window (odd, 3..=7) over the w + 1 rows and columns
+    /// of four windows: leaf (c, r) of column c (0..=w) is, for r < w − 1, rank r of the w − 1
+    /// middle rows (which all four windows hold; presorted), for r = w − 1 the top row's value
+    /// and for r = w the bottom row's. The middle rows' shared w − 1 columns are merged once;
+    /// each tile row's w − 1 shared extra values are merged once and joined by its own column's
+    /// extra value; each tile column's merged list is joined by its own column's middle values.
+    /// Outputs: top-left, top-right, bottom-left, bottom-right. (After Adams 2021, "Fast median
+    /// filters using separable sorting networks": tiles of outputs share their sorted core.)
+    pub fn tile(w: usize) -> Network {
+        check_window(w);
+        let mut b = Builder { nodes: Vec::new() };
+        let core: Vec<Vec<u32>> = (0..=w)
+            .map(|c| (0..w - 1).map(|r| b.leaf(c, r)).collect())
+            .collect();
+        let shared = b.merge(&core[1..w]);
+        let k = (w * w - 1) / 2;
+        // Per tile row: its extra values, sorted, then with its own column's.
+        let rows: Vec<[Vec<u32>; 2]> = (0..2)
+            .map(|e| {
+                let singles: Vec<Vec<u32>> = (1..w).map(|c| vec![b.leaf(c, w - 1 + e)]).collect();
+                let sorted = b.merge(&singles);
+                [0, w].map(|c| {
+                    let own = [b.leaf(c, w - 1 + e)];
+                    (0..w).map(|j| b.kth(&sorted, &own, j)).collect()
+                })
+            })
+            .collect();
+        let mut outs = [0; 4];
+        for (tc, c) in [0, w].into_iter().enumerate() {
+            // Ranks k − w..=k of the middle rows of this window's columns, then the extra row.
+            let column: Vec<u32> = (k - w..=k).map(|j| b.kth(&shared, &core[c], j)).collect();
+            for (tr, row) in rows.iter().enumerate() {
+                outs[2 * tr + tc] = b.kth(&column, &row[tc], w);
+            }
+        }
+        b.finish(outs.to_vec())
     }
 
     /// The network as the body of a `macro_rules!` macro named `name`, taking
     /// `($leaf:ident, $min:path, $max:path)`: it expands to a block of straight-line `let`s
     /// (`$leaf!(c, r)` loads rank r of column c, placed just before its first use so that
-    /// few values are live at once) whose value is `[left median, right median]`. The
+    /// few values are live at once) whose value is the array of the medians in `out` order. The
     /// compiler then keeps the values in registers, which an interpreted network cannot.
     pub fn rust_macro(&self, name: &str) -> String {
         let mut body = String::new();
@@ -185,9 +264,10 @@ impl Network {
                 body.push_str(&format!("        let v{id} = {op}(v{a}, v{b});\n"));
             }
         }
+        let outs: Vec<String> = self.out.iter().map(|o| format!("v{o}")).collect();
         format!(
-            "macro_rules! {name} {{\n    ($leaf:ident, $min:path, $max:path) => {{{{\n{body}        [v{}, v{}]\n    }}}};\n}}\n",
-            self.out[0], self.out[1]
+            "macro_rules! {name} {{\n    ($leaf:ident, $min:path, $max:path) => {{{{\n{body}        [{}]\n    }}}};\n}}\n",
+            outs.join(", ")
         )
     }
 }

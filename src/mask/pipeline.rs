@@ -43,6 +43,9 @@ const FILL_CHUNK: usize = 1 << 20;
 /// Pixels per parallel part of the per-pixel passes.
 const PIXEL_CHUNK: usize = 1 << 16;
 
+/// A run of pixels in raster order with one segment label: (label, length).
+type Run = (u32, u32);
+
 /// The parameters of every step; `Default` gives the documented defaults.
 #[derive(Clone, Debug)]
 pub struct MaskParams {
@@ -160,27 +163,35 @@ fn spike_gate(
         .len()
         .div_ceil(4 * rayon::current_num_threads())
         .max(1);
-    let held: Vec<Vec<u32>> = weight
+    // Each part also keeps its labels as runs (label, length): segments are spatially coherent,
+    // so the counting and grouping below walk runs and copy whole runs of noise instead of
+    // looking up every pixel's segment twice more (at worst, a G-buffer with a segment per
+    // pixel, one run per pixel: 8 bytes each).
+    let parts: Vec<(Vec<u32>, Vec<Run>)> = weight
         .par_chunks_mut(chunk)
         .zip(noise.par_chunks(chunk))
         .zip(seg.labels.par_chunks(chunk))
         .map(|((weight, noise), labels)| {
-            let mut held = Vec::new();
+            let (mut held, mut runs) = (Vec::new(), Vec::<Run>::new());
             for ((w, &n), &l) in weight.iter_mut().zip(noise).zip(labels) {
                 if n < floor {
                     *w = 0.0;
                 } else if *w > 0.0 && held.last() != Some(&l) {
                     held.push(l);
                 }
+                match runs.last_mut() {
+                    Some((label, len)) if *label == l => *len += 1,
+                    _ => runs.push((l, 1)),
+                }
             }
-            held
+            (held, runs)
         })
         .collect();
     // `need[segment]`: its index among the segments that need a median, or NONE.
     const NONE: u32 = u32::MAX;
     let mut need = vec![NONE; seg.count];
     let mut needed = 0;
-    for &l in held.iter().flatten() {
+    for &l in parts.iter().flat_map(|(held, _)| held) {
         if need[l as usize] == NONE {
             need[l as usize] = needed as u32;
             needed += 1;
@@ -194,15 +205,14 @@ fn spike_gate(
     // them into its own piece of each segment's block.
     // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear too), so
     // its bit patterns sort as `f32::total_cmp` does and selection can compare integers.
-    let counts: Vec<Vec<usize>> = seg
-        .labels
-        .par_chunks(chunk)
-        .map(|labels| {
+    let counts: Vec<Vec<usize>> = parts
+        .par_iter()
+        .map(|(_, runs)| {
             let mut count = vec![0usize; needed];
-            for &l in labels {
+            for &(l, len) in runs {
                 let j = need[l as usize];
                 if j != NONE {
-                    count[j as usize] += 1;
+                    count[j as usize] += len as usize;
                 }
             }
             count
@@ -224,14 +234,21 @@ fn spike_gate(
     }
     pieces
         .into_par_iter()
-        .zip(seg.labels.par_chunks(chunk))
+        .zip(&parts)
         .zip(noise.par_chunks(chunk))
-        .for_each(|((mut piece, labels), noise)| {
-            for (&l, &n) in labels.iter().zip(noise) {
+        .for_each(|((mut piece, (_, runs)), noise)| {
+            let mut at = 0;
+            for &(l, len) in runs {
+                let len = len as usize;
                 let j = need[l as usize];
                 if j != NONE {
-                    *piece[j as usize].next().expect("counted") = n.to_bits();
+                    // The run first: a zip takes from its first iterator before it learns
+                    // that the second has ended, and the piece must not lose a slot.
+                    for (&n, d) in noise[at..at + len].iter().zip(piece[j as usize].by_ref()) {
+                        *d = n.to_bits();
+                    }
                 }
+                at += len;
             }
         });
     let mut blocks = Vec::with_capacity(needed);

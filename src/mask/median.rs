@@ -12,11 +12,12 @@
 //!    top and the bottom row's values) by the pruned min/max network of `median_net.rs` (163.5
 //!    operations per pixel for w = 7, 75.5 for w = 5), which `build.rs` turns into straight-line
 //!    code: the compiler keeps its values in registers, where an interpreted network spends two
-//!    loads and a store on each operation. An odd last row takes the network for pairs of
-//!    adjacent medians in one row (184 and 80 operations per pixel) over columns of w sorted
-//!    values. Tiles instead of pairs made the 7×7 filter 35% faster (BENCHMARKS.md, "Mask");
-//! 3. with AVX (detected at run time) eight tiles or pairs run at once, one per lane;
-//!    otherwise, and for the last ones of a row, one at a time.
+//!    loads and a store on each operation. An odd last row is the top half of a tile whose
+//!    bottom row (the clamped row below the image) is dropped. Tiles instead of pairs of
+//!    medians in one row (184 operations per pixel, w sorted values per column and output row)
+//!    made the 7×7 filter 35% faster (BENCHMARKS.md, "Mask");
+//! 3. with AVX (detected at run time) eight tiles run at once, one per lane; otherwise, and for
+//!    the last ones of a row pair, one at a time.
 //!
 //! Both kernels use `min(a, b) = if a < b { a } else { b }` (and `max` alike), which is what
 //! the AVX instructions compute, so they agree bit for bit, signed zeros and infinities
@@ -31,13 +32,13 @@ use std::arch::x86_64::{
     _mm256_storeu_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 
-// `median_pair_3`, `median_pair_5`, `median_pair_7`: the networks as straight-line code.
+// `median_tile_3`, `median_tile_5`, `median_tile_7`: the networks as straight-line code.
 include!(concat!(env!("OUT_DIR"), "/median_kernels.rs"));
 
-/// Pairs of output pixels per AVX step (one per lane).
+/// Tiles per AVX step (one per lane).
 #[cfg(target_arch = "x86_64")]
 const LANES: usize = 8;
-/// The farthest a pair's columns reach right of it, in one parity half: column c of pair m is
+/// The farthest a tile's columns reach right of it, in one parity half: column c of tile m is
 /// value m + c/2 of its half, c ≤ 7.
 const EXTRA: usize = 3;
 /// Values of one parity half an AVX step reads.
@@ -103,19 +104,17 @@ impl MedianNetwork {
         if src.is_empty() {
             return dst;
         }
-        // Rows in pairs (the tile network), an odd last row alone (the pair network).
+        // Rows in pairs; an odd last row is the top half of a tile over it and the row below.
         dst.par_chunks_mut(2 * width).enumerate().for_each_init(
             || RowScratch::new(self.w, width),
             |s, (i, out)| {
                 let y = 2 * i;
-                match (kernel, out.len() > width) {
-                    (Kernel::Scalar, true) => tile_scalar(self.w, src, height, y, s, out),
-                    (Kernel::Scalar, false) => row_scalar(self.w, src, height, y, s, out),
-                    // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
-                    #[cfg(target_arch = "x86_64")]
-                    (Kernel::Avx, true) => unsafe { tile_avx(self.w, src, height, y, s, out) },
-                    #[cfg(target_arch = "x86_64")]
-                    (Kernel::Avx, false) => unsafe { row_avx(self.w, src, height, y, s, out) },
+                if out.len() == 2 * width {
+                    tile_rows(kernel, self.w, src, height, y, s, out);
+                } else {
+                    let mut both = vec![0.0; 2 * width];
+                    tile_rows(kernel, self.w, src, height, y, s, &mut both);
+                    out.copy_from_slice(&both[..width]);
                 }
                 if diff {
                     for (o, &v) in out.iter_mut().zip(&src[y * width..]) {
@@ -128,8 +127,8 @@ impl MedianNetwork {
     }
 }
 
-/// Per-thread buffers: the padded input rows of one output row (w) or of two (w + 1), and the
-/// same split by parity and column-sorted.
+/// Per-thread buffers: the w + 1 padded input rows of two output rows, and the same split by
+/// parity, the middle rows column-sorted.
 struct RowScratch {
     /// Length of one parity half of a row: the pairs plus the farthest reach past them of any
     /// window size (`EXTRA`), so that an AVX step reads the same span for every size.
@@ -149,55 +148,27 @@ impl RowScratch {
     }
 }
 
-/// Fill `s.split` for output row `y` (the pair network): the w clamped input rows around it,
-/// padded left and right with their edge pixels, split by parity (`split[p][r][m]` = padded row
-/// r's value 2m + p, so that lane i of a kernel, computing the pixels 2i and 2i + 1, reads
-/// consecutive values), each parity's columns sorted ascending.
+/// Fill `s.split` for output rows `y` and `y + 1`: per parity (`split[p][r][m]` = row r's padded
+/// value 2m + p, so that lane i of a kernel, computing the pixels 2i and 2i + 1, reads
+/// consecutive values) the w − 1 clamped input rows both windows hold, column-sorted, then the
+/// top window's first row and the bottom window's last, as `Network::tile` numbers its leaves;
+/// rows are padded left and right with their edge pixels.
 #[inline(always)]
 fn prepare(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
-    split_rows(w, src, height, y, 0..w, s);
-    for parity in s.split.chunks_mut(w * s.half).take(2) {
-        sort_columns(parity, s.half, w);
-    }
-}
-
-/// Fill `s.split` for output rows `y` and `y + 1` (the tile network): per parity the w − 1 input
-/// rows both windows hold, column-sorted, then the top window's first row and the bottom
-/// window's last, as `Network::tile` numbers its leaves.
-#[inline(always)]
-fn prepare_tile(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch) {
-    split_rows(w, src, height, y, (1..w).chain([0, w]), s);
-    for parity in s.split.chunks_mut((w + 1) * s.half).take(2) {
-        sort_columns(parity, s.half, w - 1);
-    }
-}
-
-/// The clamped input rows `y − w/2 + r` for `r` in `rows`, padded with their edge pixels, into
-/// `s.split` by parity, in the order given.
-#[inline(always)]
-fn split_rows(
-    w: usize,
-    src: &[f32],
-    height: usize,
-    y: usize,
-    rows: impl Iterator<Item = usize> + Clone,
-    s: &mut RowScratch,
-) {
     let (h, half) = (w / 2, s.half);
     let width = src.len() / height;
-    let n = rows.clone().count();
-    for (r, padded) in rows.zip(s.cols.chunks_mut(2 * half)) {
+    // Input row y − h + r for r in: the shared rows, the top row, the bottom row.
+    for (r, padded) in (1..w).chain([0, w]).zip(s.cols.chunks_mut(2 * half)) {
         let sy = (y + r).saturating_sub(h).min(height - 1);
         let row = &src[sy * width..(sy + 1) * width];
         padded[..h].fill(row[0]);
         padded[h..h + width].copy_from_slice(row);
         padded[h + width..].fill(row[width - 1]);
     }
-    let (even, odd) = s.split[..2 * n * half].split_at_mut(n * half);
+    let (even, odd) = s.split.split_at_mut((w + 1) * half);
     for ((padded, e), o) in s
         .cols
         .chunks(2 * half)
-        .take(n)
         .zip(even.chunks_mut(half))
         .zip(odd.chunks_mut(half))
     {
@@ -205,6 +176,9 @@ fn split_rows(
             *e = pair[0];
             *o = pair[1];
         }
+    }
+    for parity in s.split.chunks_mut((w + 1) * half) {
+        sort_columns(parity, half, w - 1);
     }
 }
 
@@ -232,29 +206,6 @@ fn min1(a: f32, b: f32) -> f32 {
 #[inline(always)]
 fn max1(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
-}
-
-/// The pairs `first..` of a prepared row, one at a time, into `out` (the whole output row).
-#[inline(always)]
-fn pairs_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
-    let (split, half) = (&s.split[..], s.half);
-    for m in first..out.len().div_ceil(2) {
-        // Rank r of window column c of pair m: padded column 2m + c.
-        macro_rules! leaf {
-            ($c:literal, $r:literal) => {
-                split[($c % 2 * w + $r) * half + m + $c / 2]
-            };
-        }
-        let [left, right] = match w {
-            3 => median_pair_3!(leaf, min1, max1),
-            5 => median_pair_5!(leaf, min1, max1),
-            _ => median_pair_7!(leaf, min1, max1),
-        };
-        out[2 * m] = left;
-        if let Some(px) = out.get_mut(2 * m + 1) {
-            *px = right;
-        }
-    }
 }
 
 /// The tiles `first..` of a prepared row pair, one at a time, into `out` (the two output rows).
@@ -285,8 +236,9 @@ fn tiles_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
     }
 }
 
-/// Output rows `y` and `y + 1` (`out`, two rows) with the scalar tile kernel.
-fn tile_scalar(
+/// Output rows `y` and `y + 1` (`out`, two rows) with `kernel`.
+fn tile_rows(
+    kernel: Kernel,
     w: usize,
     src: &[f32],
     height: usize,
@@ -294,14 +246,14 @@ fn tile_scalar(
     s: &mut RowScratch,
     out: &mut [f32],
 ) {
-    prepare_tile(w, src, height, y, s);
-    tiles_scalar(w, s, 0, out);
-}
-
-/// Output row `y` with the scalar kernel.
-fn row_scalar(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
     prepare(w, src, height, y, s);
-    pairs_scalar(w, s, 0, out);
+    let first = match kernel {
+        Kernel::Scalar => 0,
+        // SAFETY: `Kernel::Avx` is only chosen where the CPU has AVX.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx => unsafe { tiles_avx(w, s, out) },
+    };
+    tiles_scalar(w, s, first, out);
 }
 
 /// Eight floats from the start of `v` (at least eight long).
@@ -312,49 +264,6 @@ fn load8(v: &[f32]) -> __m256 {
     let v: &[f32; LANES] = v[..LANES].try_into().expect("eight floats");
     // SAFETY: `v` holds eight floats; the load is unaligned.
     unsafe { _mm256_loadu_ps(v.as_ptr()) }
-}
-
-/// Output row `y` with the AVX kernel: eight pairs per step, the remaining pairs one at a time.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-fn row_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
-    prepare(w, src, height, y, s);
-    let full = out.len() / 2 / LANES * LANES;
-    match w {
-        3 => pairs_avx::<3>(s, full, out),
-        5 => pairs_avx::<5>(s, full, out),
-        _ => pairs_avx::<7>(s, full, out),
-    }
-    pairs_scalar(w, s, full, out);
-}
-
-/// The pairs `0..full` (a multiple of eight) of a prepared row with the `W`×`W` AVX kernel.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-fn pairs_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
-    let (split, half) = (&s.split[..], s.half);
-    for m0 in (0..full).step_by(LANES) {
-        // The values this step reads from each of the 2W sorted rows, as fixed-size arrays, so
-        // the kernel's loads need no bounds checks (unused entries repeat row 0).
-        let rows: [&[f32; REACH]; 14] = std::array::from_fn(|i| {
-            let start = if i < 2 * W { i * half + m0 } else { m0 };
-            split[start..start + REACH]
-                .try_into()
-                .expect("REACH floats")
-        });
-        // Rank r of window column c of the pairs m0..m0 + 8: padded columns 2m + c.
-        macro_rules! leaf {
-            ($c:literal, $r:literal) => {
-                load8(&rows[$c % 2 * W + $r][$c / 2..])
-            };
-        }
-        let [left, right] = match W {
-            3 => median_pair_3!(leaf, _mm256_min_ps, _mm256_max_ps),
-            5 => median_pair_5!(leaf, _mm256_min_ps, _mm256_max_ps),
-            _ => median_pair_7!(leaf, _mm256_min_ps, _mm256_max_ps),
-        };
-        store_pairs(left, right, &mut out[2 * m0..]);
-    }
 }
 
 /// Store eight pairs of pixels at the start of `out`: lane i of `left` and `right` are the
@@ -378,29 +287,29 @@ fn store_pairs(left: __m256, right: __m256, out: &mut [f32]) {
     }
 }
 
-/// Output rows `y` and `y + 1` (`out`, two rows) with the tile kernel: eight tiles per AVX
-/// step, the remaining ones one at a time.
+/// The first tiles of a prepared row pair (`out`, two rows) with the AVX kernel, eight at a
+/// time; returns how many (a multiple of eight).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn tile_avx(w: usize, src: &[f32], height: usize, y: usize, s: &mut RowScratch, out: &mut [f32]) {
-    prepare_tile(w, src, height, y, s);
+fn tiles_avx(w: usize, s: &RowScratch, out: &mut [f32]) -> usize {
     let full = out.len() / 4 / LANES * LANES;
     match w {
-        3 => tiles_avx::<3>(s, full, out),
-        5 => tiles_avx::<5>(s, full, out),
-        _ => tiles_avx::<7>(s, full, out),
+        3 => tiles_avx_w::<3>(s, full, out),
+        5 => tiles_avx_w::<5>(s, full, out),
+        _ => tiles_avx_w::<7>(s, full, out),
     }
-    tiles_scalar(w, s, full, out);
+    full
 }
 
 /// The tiles `0..full` (a multiple of eight) of a prepared row pair with the `W`×`W` AVX kernel.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn tiles_avx<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
+fn tiles_avx_w<const W: usize>(s: &RowScratch, full: usize, out: &mut [f32]) {
     let (split, half) = (&s.split[..], s.half);
     let width = out.len() / 2;
     for m0 in (0..full).step_by(LANES) {
-        // As in `pairs_avx`, with the W + 1 rows of each parity.
+        // The values this step reads from each of the 2(W + 1) rows, as fixed-size arrays, so
+        // the kernel's loads need no bounds checks (unused entries repeat row 0).
         let rows: [&[f32; REACH]; 16] = std::array::from_fn(|i| {
             let start = if i < 2 * (W + 1) { i * half + m0 } else { m0 };
             split[start..start + REACH]
@@ -552,30 +461,25 @@ mod tests {
 
     #[test]
     fn network_is_small_and_its_code_complete() {
-        // The point of the pruning, the pairing and the tiles: the merge phases of a 64-wire
-        // Batcher sort have 391 comparators (782 min/max); one 7×7 window alone needs 372 of
-        // them, two adjacent windows sharing six columns 184 per pixel, a 2×2 tile sharing six
-        // columns and six rows 163.5 per pixel.
-        let ops = |net: &Network| {
-            net.values
+        // The point of the pruning and the tiles: the merge phases of a 64-wire Batcher sort
+        // have 391 comparators (782 min/max); one 7×7 window alone needs 372 of them, two
+        // adjacent windows sharing six columns 184 per pixel, a 2×2 tile sharing six columns
+        // and six rows 163.5 per pixel.
+        for (w, per_pixel) in [(7, 163.5), (5, 75.5)] {
+            let net = Network::tile(w);
+            let ops = net
+                .values
                 .iter()
                 .filter(|v| matches!(v, Value::MinMax { .. }))
-                .count()
-        };
-        for (w, pair, tile) in [(7, 184.0, 163.5), (5, 80.0, 75.5)] {
-            for (net, per_pixel, outputs) in
-                [(Network::new(w), pair, 2), (Network::tile(w), tile, 4)]
-            {
-                let n = ops(&net);
-                assert!(
-                    n as f64 <= per_pixel * outputs as f64,
-                    "w={w}: {n} operations for {outputs} pixels"
-                );
-                assert_eq!(net.out.len(), outputs);
-                // The generated code defines every value once.
-                let code = net.rust_macro("m");
-                assert_eq!(code.matches("let v").count(), net.values.len(), "w={w}");
-            }
+                .count();
+            assert!(
+                ops as f64 <= 4.0 * per_pixel,
+                "w={w}: {ops} operations per tile"
+            );
+            assert_eq!(net.out.len(), 4);
+            // The generated code defines every value once.
+            let code = net.rust_macro("m");
+            assert_eq!(code.matches("let v").count(), net.values.len(), "w={w}");
         }
     }
 }

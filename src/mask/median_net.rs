@@ -2,21 +2,21 @@
 //! into straight-line code (a macro per window size), and with the tests, which check its size.
 //! It uses nothing outside this file, so the build script can include it as a module.
 //!
-//! The network computes two horizontally adjacent w×w medians at once, over the w + 1 window
-//! columns `0..=w`, each column presorted ascending (rank 0 = smallest):
-//! 1. the w − 1 columns both windows share are merged once, as the presorted groups of
-//!    Batcher's odd-even merge sort on 64 wires (groups of 8, the missing values +∞), so only
-//!    its merge phases remain; comparators touching +∞ are dropped;
-//! 2. each median is then selected from that merged list A and its own column B by the
-//!    order-statistic identity `k-th of A ∪ B = min_{i+j=k+1} max(A[i−1], B[j−1])` (an empty
-//!    prefix counts as −∞): every split of the first k + 1 values bounds the k-th from above,
-//!    and the split the merged order makes attains it;
-//! 3. only the min/max operations the two medians depend on are kept: 184 per pixel for w = 7
-//!    (80 for w = 5), where one window at a time needs 372 (152).
-//!
-//! `Network::tile` does the same for a 2×2 tile of medians (two rows of pairs), which also
-//! share w − 1 of their rows: 163.5 operations per pixel for w = 7, and column sorts of w − 1
-//! values shared by two output rows instead of w values per row.
+//! The network computes a 2×2 tile of w×w medians at once (after Adams 2021, "Fast median
+//! filters using separable sorting networks"), over the w + 1 rows and columns the four windows
+//! span. All four hold the w − 1 middle rows of the w − 1 middle columns; each column's middle
+//! rows come presorted ascending (rank 0 = smallest), the top and bottom rows' values unsorted.
+//! 1. The shared middle columns are merged once, as the presorted groups of Batcher's odd-even
+//!    merge sort on 64 wires (groups of 8, the missing values +∞), so only its merge phases
+//!    remain; comparators touching +∞ are dropped. Each tile row's extra row is merged alike.
+//! 2. Lists are joined by the order-statistic identity `k-th of A ∪ B = min_{i+j=k+1}
+//!    max(A[i−1], B[j−1])` (an empty prefix counts as −∞): every split of the first k + 1 values
+//!    bounds the k-th from above, and the split the merged order makes attains it. Each tile
+//!    column joins its own column's middle rows (only the ranks the median can need), each tile
+//!    row its own column's extra value, and each median the two.
+//! 3. Only the min/max operations the four medians depend on are kept: 163.5 per pixel for
+//!    w = 7 (75.5 for w = 5), where pairs of adjacent medians in one row need 184 (80) and one
+//!    window at a time 372 (152).
 
 /// Wires of the Batcher network and the size of its presorted groups (one group per column).
 const WIRES: usize = 64;
@@ -179,29 +179,7 @@ impl Builder {
     }
 }
 
-fn check_window(w: usize) {
-    assert!(
-        w % 2 == 1 && (3..=7).contains(&w),
-        "median window must be odd and 3..=7"
-    );
-}
-
 impl Network {
-    /// The pair network for a `w`×`w` window (odd, 3..=7): leaf (c, r) is rank r of window
-    /// column c (0..=w, each of w rows presorted); outputs the left and the right median.
-    pub fn new(w: usize) -> Network {
-        check_window(w);
-        let mut b = Builder { nodes: Vec::new() };
-        let cols: Vec<Vec<u32>> = (0..=w)
-            .map(|c| (0..w).map(|r| b.leaf(c, r)).collect())
-            .collect();
-        // The shared columns 1..w sit in the network's first w − 1 groups.
-        let shared = b.merge(&cols[1..w]);
-        let k = (w * w - 1) / 2;
-        let outs = [0, w].map(|c| b.kth(&shared, &cols[c], k)).to_vec();
-        b.finish(outs)
-    }
-
     /// The 2×2 tile network for a `w`×`w` window (odd, 3..=7) over the w + 1 rows and columns
     /// of four windows: leaf (c, r) of column c (0..=w) is, for r < w − 1, rank r of the w − 1
     /// middle rows (which all four windows hold; presorted), for r = w − 1 the top row's value
@@ -211,7 +189,10 @@ impl Network {
     /// Outputs: top-left, top-right, bottom-left, bottom-right. (After Adams 2021, "Fast median
     /// filters using separable sorting networks": tiles of outputs share their sorted core.)
     pub fn tile(w: usize) -> Network {
-        check_window(w);
+        assert!(
+            w % 2 == 1 && (3..=7).contains(&w),
+            "median window must be odd and 3..=7"
+        );
         let mut b = Builder { nodes: Vec::new() };
         let core: Vec<Vec<u32>> = (0..=w)
             .map(|c| (0..w - 1).map(|r| b.leaf(c, r)).collect())

@@ -106,7 +106,7 @@ impl Backend for Handwritten {
 
 /// The renderer's: obvhs' BVH2 folded into `accel`'s 4-wide tree.
 impl Backend for Bvh {
-    const NAME: &'static str = "accel-bvh4";
+    const NAME: &'static str = "accel-bvh8";
     fn build(tris: &[[Vec3; 3]]) -> Self {
         Bvh::new(tris)
     }

@@ -1,12 +1,14 @@
-//! Ray queries over triangles: a 4-wide BVH whose nodes hold their four children's boxes, and
-//! whose leaves hold triangles four at a time, so one SIMD pass (glam's `Vec4`, SSE on x86-64)
-//! tests four boxes or four triangles. The tree is obvhs' binary BVH (PLOC build with
-//! reinsertion and leaf collapsing) with every other level folded away. Chosen by measurement
+//! Ray queries over triangles: an 8-wide BVH whose nodes hold their eight children's boxes, and
+//! whose leaves hold triangles eight at a time, so one SIMD pass (`lanes::F8`, an AVX register
+//! on x86-64) tests eight boxes or eight triangles. The tree is obvhs' binary BVH (PLOC build
+//! with reinsertion and leaf collapsing) with two of every three levels folded away. Chosen by measurement
 //! over obvhs' own BVH2 and CWBVH traversals and a hand-written binned-SAH BVH2: see
 //! BENCHMARKS.md, "Ray queries (BVH)", and `benches/bvh`.
 
+mod lanes;
+
 use crate::math::Vec3;
-use glam::{BVec4A, Vec4};
+use lanes::{F8, M8};
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::bvh2::{Bvh2, node::Bvh2Node};
@@ -35,27 +37,30 @@ const LEAF: u32 = 1 << 31;
 const EMPTY: u32 = u32::MAX;
 const COUNT_SHIFT: u32 = 25;
 const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
-/// Blocks a leaf can name: obvhs' leaves hold at most 255 triangles, 64 blocks.
+/// Blocks a leaf can name: obvhs' leaves hold at most 255 triangles, 32 blocks.
 const MAX_LEAF_BLOCKS: usize = 1 << (31 - COUNT_SHIFT);
 /// The most triangles the child encoding can address: every block holds at least one, so
 /// this many never need more blocks than a leaf reference can name (33.5 M).
 pub const MAX_TRIANGLES: usize = FIRST_MASK as usize;
 
-/// Four children's boxes, one lane each; unused lanes have `child` = `EMPTY`.
+/// Children and triangles per node and block: the SIMD width.
+const W: usize = F8::LANES;
+
+/// Eight children's boxes, one lane each; unused lanes have `child` = `EMPTY`.
 #[derive(Clone, Copy)]
 struct Node {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
-    child: [u32; 4],
+    lo: [F8; 3],
+    hi: [F8; 3],
+    child: [u32; W],
 }
 
-/// Four triangles as vertex and two edges, one lane each; padding lanes are all zero, which
+/// Eight triangles as vertex and two edges, one lane each; padding lanes are all zero, which
 /// gives a zero determinant and NaN barycentrics, so they never hit.
 #[derive(Clone, Copy)]
 struct Block {
-    v0: [Vec4; 3],
-    e1: [Vec4; 3],
-    e2: [Vec4; 3],
+    v0: [F8; 3],
+    e1: [F8; 3],
+    e2: [F8; 3],
 }
 
 pub struct Bvh {
@@ -68,11 +73,11 @@ pub struct Bvh {
     stack_len: usize,
 }
 
-/// A ray splatted across four lanes, with the reciprocal direction for the slab test.
+/// A ray splatted across the lanes, with the reciprocal direction for the slab test.
 struct Query {
-    o: [Vec4; 3],
-    d: [Vec4; 3],
-    inv: [Vec4; 3],
+    o: [F8; 3],
+    d: [F8; 3],
+    inv: [F8; 3],
 }
 
 impl Query {
@@ -84,12 +89,12 @@ impl Query {
         };
         let (o, d) = (ray.origin, ray.dir);
         Query {
-            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            d: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
+            o: [F8::splat(o.x), F8::splat(o.y), F8::splat(o.z)],
+            d: [F8::splat(d.x), F8::splat(d.y), F8::splat(d.z)],
             inv: [
-                Vec4::splat(inv(d.x)),
-                Vec4::splat(inv(d.y)),
-                Vec4::splat(inv(d.z)),
+                F8::splat(inv(d.x)),
+                F8::splat(inv(d.y)),
+                F8::splat(inv(d.z)),
             ],
         }
     }
@@ -100,39 +105,35 @@ impl Query {
 const SLAB_WIDEN: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 impl Node {
-    const EMPTY: Node = Node {
-        lo: [Vec4::ZERO; 3],
-        hi: [Vec4::ZERO; 3],
-        child: [EMPTY; 4],
-    };
+    fn empty() -> Node {
+        Node {
+            lo: [F8::zero(); 3],
+            hi: [F8::zero(); 3],
+            child: [EMPTY; W],
+        }
+    }
 
-    /// Entry distances of the four boxes and a bit per lane whose box the ray meets in
+    /// Entry distances of the eight boxes and a bit per lane whose box the ray meets in
     /// [0, t_max].
     #[inline(always)]
-    fn intersect(&self, q: &Query, t_max: f32) -> (u32, Vec4) {
-        let mut near = Vec4::ZERO;
-        let mut far = Vec4::splat(t_max);
+    fn intersect(&self, q: &Query, t_max: f32) -> (u32, F8) {
+        let mut near = F8::zero();
+        let mut far = F8::splat(t_max);
         for a in 0..3 {
             let t0 = (self.lo[a] - q.o[a]) * q.inv[a];
             let t1 = (self.hi[a] - q.o[a]) * q.inv[a];
             near = near.max(t0.min(t1));
             far = far.min(t0.max(t1));
         }
-        (near.cmple(far * SLAB_WIDEN).bitmask(), near)
+        (near.le(far * F8::splat(SLAB_WIDEN)).bitmask(), near)
     }
 }
 
 impl Block {
-    const EMPTY: Block = Block {
-        v0: [Vec4::ZERO; 3],
-        e1: [Vec4::ZERO; 3],
-        e2: [Vec4::ZERO; 3],
-    };
-
-    /// Möller–Trumbore on four triangles: which lanes hit with t in (0, t_max), and every
+    /// Möller–Trumbore on eight triangles: which lanes hit with t in (0, t_max), and every
     /// lane's t and barycentrics of v1 and v2.
     #[inline(always)]
-    fn lanes(&self, q: &Query, t_max: f32) -> (BVec4A, Vec4, Vec4, Vec4) {
+    fn lanes(&self, q: &Query, t_max: f32) -> (M8, F8, F8, F8) {
         let [dx, dy, dz] = q.d;
         let [e1x, e1y, e1z] = self.e1;
         let [e2x, e2y, e2z] = self.e2;
@@ -141,7 +142,7 @@ impl Block {
             dz * e2x - dx * e2z,
             dx * e2y - dy * e2x,
         );
-        let inv_det = Vec4::ONE / (e1x * px + e1y * py + e1z * pz);
+        let inv_det = F8::splat(1.0) / (e1x * px + e1y * py + e1z * pz);
         let (sx, sy, sz) = (
             q.o[0] - self.v0[0],
             q.o[1] - self.v0[1],
@@ -155,11 +156,12 @@ impl Block {
         );
         let v = (dx * qx + dy * qy + dz * qz) * inv_det;
         let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
-        let ok = u.cmpge(Vec4::ZERO)
-            & v.cmpge(Vec4::ZERO)
-            & (u + v).cmple(Vec4::ONE)
-            & t.cmpgt(Vec4::ZERO)
-            & t.cmplt(Vec4::splat(t_max));
+        let zero = F8::zero();
+        let ok = zero.le(u)
+            & zero.le(v)
+            & (u + v).le(F8::splat(1.0))
+            & zero.lt(t)
+            & t.lt(F8::splat(t_max));
         (ok, t, u, v)
     }
 
@@ -172,9 +174,9 @@ impl Block {
         if !ok.any() {
             return None;
         }
-        let t = Vec4::select(ok, t, Vec4::INFINITY);
-        let nearest = t.min_element();
-        let lane = t.cmpeq(Vec4::splat(nearest)).bitmask().trailing_zeros() as usize;
+        let t = F8::select(ok, t, F8::splat(f32::INFINITY));
+        let nearest = t.min_lane();
+        let lane = t.eq(F8::splat(nearest)).bitmask().trailing_zeros() as usize;
         // Arrays, not vectors: indexing a SIMD register by a run-time lane compiles to a jump
         // table, an indirect jump per read.
         Some((lane, nearest, u.to_array()[lane], v.to_array()[lane]))
@@ -187,7 +189,7 @@ impl Block {
     }
 }
 
-/// Folds obvhs' binary tree into the 4-wide one.
+/// Folds obvhs' binary tree into the 8-wide one.
 struct Builder<'a> {
     bvh2: &'a Bvh2,
     tris: &'a [[Vec3; 3]],
@@ -203,10 +205,10 @@ impl Builder<'_> {
         if n.is_leaf() {
             return (self.leaf(n), 0);
         }
-        // Open the largest inner child until there are four: the surface area heuristic's
+        // Open the largest inner child until there are eight: the surface area heuristic's
         // choice of which boxes are worth testing together.
         let mut kids = vec![n.first_index as usize, n.first_index as usize + 1];
-        while kids.len() < 4 {
+        while kids.len() < W {
             let area = |k: usize| self.bvh2.nodes[k].aabb().half_area();
             let Some(j) = (0..kids.len())
                 .filter(|&j| !self.bvh2.nodes[kids[j]].is_leaf())
@@ -219,39 +221,48 @@ impl Builder<'_> {
             kids.push(first + 1);
         }
         let slot = self.nodes.len();
-        self.nodes.push(Node::EMPTY);
-        let mut node = Node::EMPTY;
+        self.nodes.push(Node::empty());
+        let (mut lo, mut hi) = ([[0.0; W]; 3], [[0.0; W]; 3]);
+        let mut child = [EMPTY; W];
         let mut depth = 0;
         for (lane, &k) in kids.iter().enumerate() {
             let aabb = self.bvh2.nodes[k].aabb();
             for a in 0..3 {
-                node.lo[a][lane] = aabb.min[a];
-                node.hi[a][lane] = aabb.max[a];
+                lo[a][lane] = aabb.min[a];
+                hi[a][lane] = aabb.max[a];
             }
             let (code, d) = self.child(k);
-            node.child[lane] = code;
+            child[lane] = code;
             depth = depth.max(d);
         }
-        self.nodes[slot] = node;
+        self.nodes[slot] = Node {
+            lo: lo.map(F8::from_array),
+            hi: hi.map(F8::from_array),
+            child,
+        };
         (slot as u32, depth + 1)
     }
 
     fn leaf(&mut self, n: &Bvh2Node) -> u32 {
         let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
         let first = self.blocks.len();
-        for chunk in self.bvh2.primitive_indices[range].chunks(4) {
-            let mut block = Block::EMPTY;
+        for chunk in self.bvh2.primitive_indices[range].chunks(W) {
+            let [mut v0, mut e1, mut e2] = [[[0.0; W]; 3]; 3];
             for (lane, &p) in chunk.iter().enumerate() {
                 let [a, b, c] = self.tris[p as usize];
-                let (e1, e2) = (b - a, c - a);
+                let (ea, eb) = (b - a, c - a);
                 for ax in 0..3 {
-                    block.v0[ax][lane] = a[ax];
-                    block.e1[ax][lane] = e1[ax];
-                    block.e2[ax][lane] = e2[ax];
+                    v0[ax][lane] = a[ax];
+                    e1[ax][lane] = ea[ax];
+                    e2[ax][lane] = eb[ax];
                 }
             }
-            self.blocks.push(block);
-            let mut lanes = [u32::MAX; 4];
+            self.blocks.push(Block {
+                v0: v0.map(F8::from_array),
+                e1: e1.map(F8::from_array),
+                e2: e2.map(F8::from_array),
+            });
+            let mut lanes = [u32::MAX; W];
             lanes[..chunk.len()].copy_from_slice(chunk);
             self.prims.extend_from_slice(&lanes);
         }
@@ -267,7 +278,7 @@ impl Builder<'_> {
 /// A traversal stack on the call stack when the tree is shallow enough (always, for sane
 /// trees), so queries do not allocate; small scenes get a smaller one, since zeroing it is a
 /// measurable part of a query on a few dozen triangles (PT on the Cornell box: 3%).
-const SMALL_STACK: usize = 48;
+const SMALL_STACK: usize = 80;
 const TINY_STACK: usize = 16;
 
 impl Bvh {
@@ -311,8 +322,8 @@ impl Bvh {
             blocks: b.blocks,
             prims: b.prims,
             root,
-            // Each inner node pops one entry and pushes at most four.
-            stack_len: 3 * depth + 1,
+            // Each inner node pops one entry and pushes at most eight.
+            stack_len: (W - 1) * depth + 1,
         }
     }
 
@@ -367,7 +378,7 @@ impl Bvh {
                 let near = near.to_array();
                 // Push the boxes met, farthest first, so the nearest is traversed next and
                 // its hits cull the others.
-                let mut order = [(0u32, 0f32); 4];
+                let mut order = [(0u32, 0f32); W];
                 let mut n = 0;
                 while mask != 0 {
                     let lane = mask.trailing_zeros() as usize;
@@ -391,7 +402,7 @@ impl Bvh {
             }
             best.map(|(b, lane, b1, b2)| Hit {
                 t: best_t,
-                prim: self.prims[4 * b + lane],
+                prim: self.prims[W * b + lane],
                 b1,
                 b2,
             })

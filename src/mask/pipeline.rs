@@ -148,14 +148,15 @@ pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
 /// ≥ `tail` × median). The floor needs no median and goes first, here; only the segments that
 /// still hold a weight then need their median and mean (on a clean image few or none). Returns
 /// per segment the noise a weighted pixel must reach (`None` if no segment needs one), which
-/// the fill step applies on its pass over the weights.
+/// the fill step applies on its pass over the weights. `scratch` (one value per pixel, left
+/// in any state) holds the needed segments' noise: α's buffer, written after the gate, so the
+/// gate touches no fresh memory of its own (fresh pages are zeroed serially, BENCHMARKS.md).
 fn spike_gate(
     noise: &[f32],
     weight: &mut [f32],
     seg: &Segments,
-    contrast: f32,
-    tail: f32,
-    floor: f32,
+    (contrast, tail, floor): (f32, f32, f32),
+    scratch: &mut [f32],
 ) -> Option<Vec<f32>> {
     // A few parts per thread (so a thread slowed by other work can be relieved), each with
     // per-segment state for the segments it meets.
@@ -205,6 +206,7 @@ fn spike_gate(
     // them into its own piece of each segment's block.
     // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear too), so
     // its bit patterns sort as `f32::total_cmp` does and selection can compare integers.
+    let bits = |x: &f32| x.to_bits();
     let counts: Vec<Vec<usize>> = parts
         .par_iter()
         .map(|(_, runs)| {
@@ -221,10 +223,10 @@ fn spike_gate(
     let sizes: Vec<usize> = (0..needed)
         .map(|j| counts.iter().map(|c| c[j]).sum())
         .collect();
-    let mut grouped = vec![0u32; sizes.iter().sum()];
-    let mut pieces: Vec<Vec<std::slice::IterMut<u32>>> =
+    let grouped = &mut scratch[..sizes.iter().sum()];
+    let mut pieces: Vec<Vec<std::slice::IterMut<f32>>> =
         counts.iter().map(|_| Vec::with_capacity(needed)).collect();
-    let mut rest = grouped.as_mut_slice();
+    let mut rest = &mut grouped[..];
     for j in 0..needed {
         for (piece, count) in pieces.iter_mut().zip(&counts) {
             let (mine, tail) = std::mem::take(&mut rest).split_at_mut(count[j]);
@@ -245,14 +247,14 @@ fn spike_gate(
                     // The run first: a zip takes from its first iterator before it learns
                     // that the second has ended, and the piece must not lose a slot.
                     for (&n, d) in noise[at..at + len].iter().zip(piece[j as usize].by_ref()) {
-                        *d = n.to_bits();
+                        *d = n;
                     }
                 }
                 at += len;
             }
         });
     let mut blocks = Vec::with_capacity(needed);
-    let mut rest = grouped.as_mut_slice();
+    let mut rest = grouped;
     for &size in &sizes {
         let (block, tail) = std::mem::take(&mut rest).split_at_mut(size);
         blocks.push(block);
@@ -264,9 +266,11 @@ fn spike_gate(
         .into_par_iter()
         .map(|v| {
             // Summed in raster order before the selection reorders them: deterministic.
-            let mean = v.iter().map(|&b| f32::from_bits(b) as f64).sum::<f64>() / v.len() as f64;
+            let mean = v.iter().map(|&n| n as f64).sum::<f64>() / v.len() as f64;
             let mid = (v.len() - 1) / 2;
-            let median = f32::from_bits(*v.select_nth_unstable_by(mid, |a, b| b.cmp(a)).1);
+            let median = *v
+                .select_nth_unstable_by_key(mid, |n| std::cmp::Reverse(bits(n)))
+                .1;
             if mean >= tail as f64 * median as f64 {
                 contrast * median
             } else {
@@ -299,6 +303,7 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         fov_y: p.fov_y,
     };
     let segments = segment(&g, &sp);
+    let mut alpha = vec![0.0f32; width * height];
     let gate = if p.paper {
         None
     } else {
@@ -311,7 +316,8 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
             .collect();
         let mean_y = chunk_sums.iter().sum::<f64>() / input.luminance.len() as f64;
         let floor = p.min_level * mean_y as f32;
-        spike_gate(&noise, &mut weight, &segments, p.contrast, p.tail, floor)
+        let gate = (p.contrast, p.tail, floor);
+        spike_gate(&noise, &mut weight, &segments, gate, &mut alpha)
     };
     let count = segments.count;
     // The gate's last test and the fill in one pass.
@@ -352,17 +358,18 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         .sum();
     let complex_fraction = complex as f64 / segments.labels.len() as f64;
     let switched = complex_fraction > p.switch;
-    let alpha = segments
-        .labels
-        .par_iter()
-        .map(|&l| {
-            if switched || complex_of[l as usize] {
-                1.0
-            } else {
-                p.epsilon
+    alpha
+        .par_chunks_mut(PIXEL_CHUNK)
+        .zip(segments.labels.par_chunks(PIXEL_CHUNK))
+        .for_each(|(alpha, labels)| {
+            for (a, &l) in alpha.iter_mut().zip(labels) {
+                *a = if switched || complex_of[l as usize] {
+                    1.0
+                } else {
+                    p.epsilon
+                };
             }
-        })
-        .collect();
+        });
     Mask {
         width,
         height,

@@ -1,5 +1,5 @@
 //! Ray-query throughput of the BVH backends the renderer could use (BENCHMARKS.md, "Ray queries
-//! (BVH)"): `mixmc::accel::Bvh` (obvhs' BVH2 folded into a 4-wide tree with 4-triangle leaves,
+//! (BVH)"): `mixmc::accel::Bvh` (obvhs' BVH2 folded into an 8-wide tree with 8-triangle leaves,
 //! the one chosen), obvhs' CWBVH and BVH2 with obvhs' own traversals (the BVH2 one is what
 //! `accel` used before), and the hand-written binned-SAH BVH2 it held first (`handwritten.rs`).
 //!
@@ -104,7 +104,7 @@ impl Backend for Handwritten {
     }
 }
 
-/// The renderer's: obvhs' BVH2 folded into `accel`'s 4-wide tree.
+/// The renderer's: obvhs' BVH2 folded into `accel`'s 8-wide tree (4-wide until session 6).
 impl Backend for Bvh {
     const NAME: &'static str = "accel-bvh8";
     fn build(tris: &[[Vec3; 3]]) -> Self {
@@ -205,7 +205,7 @@ macro_rules! obvhs_tree {
 }
 
 obvhs_tree!(CwBvh, "obvhs-cwbvh", build_cwbvh_from_tris);
-// The tree `accel` traversed itself before it folded it into a 4-wide one.
+// The tree `accel` traversed itself before it folded it into a wide one.
 obvhs_tree!(Bvh2, "obvhs-bvh2", build_bvh2_from_tris);
 
 struct Obvhs<T> {

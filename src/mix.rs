@@ -169,7 +169,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let snapshot_source = ours(&snapshot_name, snapshot)?;
     let (input, warnings) = MaskInput::from_source(&snapshot_source)?;
     let snapshot = snapshot_source.into_image();
-    let m = build(&input, &params);
+    let m = build(input, &params);
     let mask_img = mask_image(
         &m,
         &params,

@@ -150,7 +150,7 @@ fn main() -> ExitCode {
         let input_path = &args.inputs[0];
         let (fov_y, fov_source) = fov(&args, &src);
         let params = args.params(fov_y)?;
-        let (input, warnings) =
+        let (mut input, warnings) =
             MaskInput::from_source(&src).map_err(|e| e.with_file(input_path))?;
         for w in warnings {
             eprintln!("mixmc-mask: {}: warning: {w}", input_path.display());
@@ -161,12 +161,14 @@ fn main() -> ExitCode {
                 input_path.display()
             );
         }
+        // The mask takes the input's buffers for its own; the overlay keeps the light.
+        let indirect = std::mem::take(&mut input.indirect);
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
-        let mask = build(&input, &params);
+        let mask = build(input, &params);
         let seconds = start.elapsed().as_secs_f64();
         let cpu_seconds = process_cpu_seconds() - cpu_start;
         if let Some(dir) = &args.inspect {
-            inspect::write_steps(dir, &input, &mask)?;
+            inspect::write_steps(dir, &indirect, &mask)?;
         }
         let mut out = mask_image(
             &mask,

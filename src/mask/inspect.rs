@@ -3,7 +3,6 @@
 //! `2-weight.png`, `3-segments.png` (false colour), `4-filled.png`, `5-mask.png` (the indirect
 //! image, complex pixels tinted red, segment borders of the mask marked).
 
-use super::input::MaskInput;
 use super::pipeline::Mask;
 use crate::error::{Error, Result};
 use crate::film::{srgb8, write_png_rgb8};
@@ -30,8 +29,9 @@ fn write(dir: &Path, name: &str, m: &Mask, px: impl Iterator<Item = [u8; 3]>) ->
     write_png_rgb8(&dir.join(name), m.width, m.height, px.flatten().collect())
 }
 
-/// Write the five step images into `dir` (created if missing).
-pub fn write_steps(dir: &Path, input: &MaskInput, m: &Mask) -> Result<()> {
+/// Write the five step images into `dir` (created if missing); `indirect` is the input's light,
+/// under the overlay.
+pub fn write_steps(dir: &Path, indirect: &[[f32; 3]], m: &Mask) -> Result<()> {
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::in_file(dir, format!("cannot create directory: {e}")))?;
     let scale = if m.top_median > 0.0 {
@@ -68,7 +68,7 @@ pub fn write_steps(dir: &Path, input: &MaskInput, m: &Mask) -> Result<()> {
         let a = m.alpha[i];
         (x + 1 < w && m.alpha[i + 1] != a) || (y + 1 < h && m.alpha[i + w] != a)
     };
-    let overlay = input.indirect.iter().enumerate().map(|(i, c)| {
+    let overlay = indirect.iter().enumerate().map(|(i, c)| {
         let base = c.map(srgb8);
         if border(i) {
             [255, 255, 0]

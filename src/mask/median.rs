@@ -82,13 +82,16 @@ impl MedianNetwork {
 
     /// Median-filter a `width`×`height` image (row-major), borders clamped to the edge.
     pub fn apply(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
-        self.apply_with(src, width, height, Kernel::detect(), false)
+        let mut dst = vec![0.0; src.len()];
+        self.apply_with(src, width, height, Kernel::detect(), false, &mut dst);
+        dst
     }
 
-    /// `|src − median(src)|`, the mask's noise: the difference is taken row by row while the
-    /// row is in cache, instead of in a second pass over two whole images.
-    pub fn abs_diff(&self, src: &[f32], width: usize, height: usize) -> Vec<f32> {
-        self.apply_with(src, width, height, Kernel::detect(), true)
+    /// `|src − median(src)|`, the mask's noise, into `dst` (any contents, `src`'s size): the
+    /// difference is taken row by row while the row is in cache, instead of in a second pass
+    /// over two whole images.
+    pub fn abs_diff(&self, src: &[f32], width: usize, height: usize, dst: &mut [f32]) {
+        self.apply_with(src, width, height, Kernel::detect(), true, dst)
     }
 
     fn apply_with(
@@ -98,11 +101,12 @@ impl MedianNetwork {
         height: usize,
         kernel: Kernel,
         diff: bool,
-    ) -> Vec<f32> {
+        dst: &mut [f32],
+    ) {
         assert_eq!(src.len(), width * height);
-        let mut dst = vec![0.0f32; src.len()];
+        assert_eq!(dst.len(), src.len());
         if src.is_empty() {
-            return dst;
+            return;
         }
         // Rows in pairs; an odd last row is the top half of a tile over it and the row below.
         dst.par_chunks_mut(2 * width).enumerate().for_each_init(
@@ -123,7 +127,6 @@ impl MedianNetwork {
                 }
             },
         );
-        dst
     }
 }
 
@@ -402,13 +405,19 @@ mod tests {
                 let want = median_reference(&img, width, height, w);
                 for k in kernels() {
                     assert_eq!(
-                        net.apply_with(&img, width, height, k, false),
+                        filtered(&net, &img, width, height, k),
                         want,
                         "w={w} {width}x{height} {k:?}"
                     );
                 }
             }
         }
+    }
+
+    fn filtered(net: &MedianNetwork, img: &[f32], w: usize, h: usize, k: Kernel) -> Vec<f32> {
+        let mut out = vec![f32::NAN; img.len()];
+        net.apply_with(img, w, h, k, false, &mut out);
+        out
     }
 
     #[test]
@@ -418,7 +427,10 @@ mod tests {
         let net = MedianNetwork::new(5);
         let med = median_reference(&img, width, height, 5);
         let want: Vec<f32> = img.iter().zip(&med).map(|(y, m)| (y - m).abs()).collect();
-        assert_eq!(net.abs_diff(&img, width, height), want);
+        // Whatever the output buffer held before is overwritten.
+        let mut got = vec![f32::NAN; img.len()];
+        net.abs_diff(&img, width, height, &mut got);
+        assert_eq!(got, want);
     }
 
     #[test]
@@ -439,7 +451,7 @@ mod tests {
         for w in [3, 5, 7] {
             let net = MedianNetwork::new(w);
             let bits = |k| -> Vec<u32> {
-                net.apply_with(&img, width, height, k, false)
+                filtered(&net, &img, width, height, k)
                     .iter()
                     .map(|v| v.to_bits())
                     .collect()

@@ -117,30 +117,28 @@ pub struct Mask {
     pub switched: bool,
 }
 
-/// Step 1: the noise of the indirect luminance.
-pub fn noise(luminance: &[f32], width: usize, height: usize, window: usize) -> Vec<f32> {
-    MedianNetwork::new(window).abs_diff(luminance, width, height)
+/// Step 1: the noise of the indirect luminance, into `out` (any contents).
+pub fn noise(luminance: &[f32], width: usize, height: usize, window: usize, out: &mut [f32]) {
+    MedianNetwork::new(window).abs_diff(luminance, width, height, out)
 }
 
-/// Step 2: sigmoid weights of the top fraction; returns (weights, t, m).
-pub fn weights(noise: &[f32], top: f64, k: f64) -> (Vec<f32>, f32, f32) {
+/// Step 2: sigmoid weights of the top fraction, into `out` (any contents); returns (t, m).
+pub fn weights(noise: &[f32], top: f64, k: f64, out: &mut [f32]) -> (f32, f32) {
     let count = ((top * noise.len() as f64).ceil() as usize).clamp(1, noise.len());
     let [t, m] = nth_largest_many(noise, [count - 1, (count - 1) / 2]);
-    if m <= 0.0 {
-        return (vec![0.0; noise.len()], t, m);
-    }
-    let (k, m64) = (k as f32, m);
-    let w = noise
-        .par_iter()
-        .map(|&n| {
-            if n >= t {
-                1.0 / (1.0 + (-k * (n - m64) / m64).exp())
-            } else {
-                0.0
+    let k = k as f32;
+    out.par_chunks_mut(PIXEL_CHUNK)
+        .zip(noise.par_chunks(PIXEL_CHUNK))
+        .for_each(|(out, noise)| {
+            for (w, &n) in out.iter_mut().zip(noise) {
+                *w = if m > 0.0 && n >= t {
+                    1.0 / (1.0 + (-k * (n - m) / m).exp())
+                } else {
+                    0.0
+                };
             }
-        })
-        .collect();
-    (w, t, m)
+        });
+    (t, m)
 }
 
 /// The spike gate (module docs): a weight stays only where the noise reaches `floor` and
@@ -285,17 +283,25 @@ fn spike_gate(
     )
 }
 
-/// All steps.
-pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
-    let (width, height) = (input.width, input.height);
-    let noise = noise(&input.luminance, width, height, p.window);
-    let (mut weight, threshold, top_median) = weights(&noise, p.top, p.k);
+/// All steps. The input's buffers become the outputs' once their values are no longer needed
+/// (noise in depth's, weights in luminance's, α in the material ids'): fresh memory costs the
+/// kernel's serial zeroing of every page (BENCHMARKS.md, "Mask"), 5 ms per 4K buffer.
+pub fn build(input: MaskInput, p: &MaskParams) -> Mask {
+    let MaskInput {
+        width,
+        height,
+        luminance,
+        depth,
+        normal,
+        matid,
+        ..
+    } = input;
     let g = GBuffer {
         width,
         height,
-        depth: &input.depth,
-        normal: &input.normal,
-        matid: &input.matid,
+        depth: &depth,
+        normal: &normal,
+        matid: &matid,
     };
     let sp = SegmentParams {
         normal_tol: p.normal_tol,
@@ -303,22 +309,26 @@ pub fn build(input: &MaskInput, p: &MaskParams) -> Mask {
         fov_y: p.fov_y,
     };
     let segments = segment(&g, &sp);
-    let mut alpha = vec![0.0f32; width * height];
-    let gate = if p.paper {
-        None
-    } else {
-        // Fixed chunks summed in order: rayon's own sum splits by thread count, and the floor
-        // must not depend on it.
-        let chunk_sums: Vec<f64> = input
-            .luminance
+    drop(normal);
+    let (mut noise_out, mut weight, mut alpha) = (depth, luminance, matid);
+    noise(&weight, width, height, p.window, &mut noise_out);
+    let noise = noise_out;
+    // The gate's floor, from the luminance before its buffer takes the weights. Fixed chunks
+    // summed in order: rayon's own sum splits by thread count, and the floor must not depend
+    // on it.
+    let floor = (!p.paper).then(|| {
+        let chunk_sums: Vec<f64> = weight
             .par_chunks(PIXEL_CHUNK)
             .map(|c| c.iter().map(|&y| y as f64).sum())
             .collect();
-        let mean_y = chunk_sums.iter().sum::<f64>() / input.luminance.len() as f64;
-        let floor = p.min_level * mean_y as f32;
+        let mean_y = chunk_sums.iter().sum::<f64>() / weight.len() as f64;
+        p.min_level * mean_y as f32
+    });
+    let (threshold, top_median) = weights(&noise, p.top, p.k, &mut weight);
+    let gate = floor.and_then(|floor| {
         let gate = (p.contrast, p.tail, floor);
         spike_gate(&noise, &mut weight, &segments, gate, &mut alpha)
-    };
+    });
     let count = segments.count;
     // The gate's last test and the fill in one pass.
     let fill = weight

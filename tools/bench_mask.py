@@ -82,13 +82,15 @@ def main():
                 ("mixmc-mask --paper", BIN, ["--paper"])]
     if args.baseline:
         variants.insert(1, (f"baseline {args.baseline}/mixmc-mask (7x7, default)", args.baseline, []))
-    # Rounds interleave every variant and OpenCV, so a change in the machine's load hits all alike.
+    # Rounds interleave every variant and OpenCV, so a change in the machine's load hits all alike,
+    # in alternating order: on a busy host the first run after another process's exit can be the
+    # slow one (fresh pages to zero), and a fixed order would charge that to one variant.
     comp = {label: [] for label, _, _ in variants}
     cpu = {label: [] for label, _, _ in variants}
     wall = {label: [] for label, _, _ in variants}
     cv, cv_cpu = [], []
-    for _ in range(args.runs):
-        for label, bin_dir, extra in variants:
+    for round in range(args.runs):
+        for label, bin_dir, extra in (variants if round % 2 == 0 else variants[::-1]):
             t = time.perf_counter()
             r = subprocess.run([os.path.join(bin_dir, "mixmc-mask"), src, "-o", os.path.join(args.workdir, "mask.exr"),
                                 "--json"] + threads + extra, check=True, capture_output=True, text=True)

@@ -1,9 +1,9 @@
 //! Ray queries over triangles: an 8-wide BVH whose nodes hold their eight children's boxes, and
 //! whose leaves hold triangles eight at a time, so one SIMD pass (`lanes::F8`, an AVX register
 //! on x86-64) tests eight boxes or eight triangles. The tree is obvhs' binary BVH (PLOC build
-//! with reinsertion and leaf collapsing) with two of every three levels folded away. Chosen by measurement
-//! over obvhs' own BVH2 and CWBVH traversals and a hand-written binned-SAH BVH2: see
-//! BENCHMARKS.md, "Ray queries (BVH)", and `benches/bvh`.
+//! with reinsertion and leaf collapsing) with two of every three levels folded away. Chosen by
+//! measurement over obvhs' own BVH2 and CWBVH traversals, a hand-written binned-SAH BVH2 and
+//! the same fold to 4 wide: see BENCHMARKS.md, "Ray queries (BVH)", and `benches/bvh`.
 
 mod lanes;
 

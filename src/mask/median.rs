@@ -51,7 +51,7 @@ pub struct MedianNetwork {
     w: usize,
 }
 
-/// Which kernel computes the pairs of medians.
+/// Which kernel computes the tiles of medians.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kernel {
     Scalar,
@@ -217,7 +217,7 @@ fn tiles_scalar(w: usize, s: &RowScratch, first: usize, out: &mut [f32]) {
     let (split, half) = (&s.split[..], s.half);
     let (top, bottom) = out.split_at_mut(out.len() / 2);
     for m in first..top.len().div_ceil(2) {
-        // Leaf (c, r) of tile m: padded column 2m + c, row r of its parity (`prepare_tile`).
+        // Leaf (c, r) of tile m: padded column 2m + c, row r of its parity (`prepare`).
         macro_rules! leaf {
             ($c:literal, $r:literal) => {
                 split[($c % 2 * (w + 1) + $r) * half + m + $c / 2]

@@ -202,9 +202,6 @@ fn spike_gate(
     // The noise of the needed segments' pixels grouped by segment (a counting sort), each
     // segment's pixels in raster order: every part counts its pixels per segment, then writes
     // them into its own piece of each segment's block.
-    // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear too), so
-    // its bit patterns sort as `f32::total_cmp` does and selection can compare integers.
-    let bits = |x: &f32| x.to_bits();
     let counts: Vec<Vec<usize>> = parts
         .par_iter()
         .map(|(_, runs)| {
@@ -266,8 +263,11 @@ fn spike_gate(
             // Summed in raster order before the selection reorders them: deterministic.
             let mean = v.iter().map(|&n| n as f64).sum::<f64>() / v.len() as f64;
             let mid = (v.len() - 1) / 2;
+            // The noise is |·|, never negative (NaN only from ∞ − ∞, with the sign bit clear
+            // too), so its bit patterns sort as `f32::total_cmp` does and selection can compare
+            // integers.
             let median = *v
-                .select_nth_unstable_by_key(mid, |n| std::cmp::Reverse(bits(n)))
+                .select_nth_unstable_by_key(mid, |n| std::cmp::Reverse(n.to_bits()))
                 .1;
             if mean >= tail as f64 * median as f64 {
                 contrast * median
@@ -310,21 +310,22 @@ pub fn build(input: MaskInput, p: &MaskParams) -> Mask {
     };
     let segments = segment(&g, &sp);
     drop(normal);
-    let (mut noise_out, mut weight, mut alpha) = (depth, luminance, matid);
-    noise(&weight, width, height, p.window, &mut noise_out);
-    let noise = noise_out;
+    let mut noise = depth;
+    self::noise(&luminance, width, height, p.window, &mut noise);
     // The gate's floor, from the luminance before its buffer takes the weights. Fixed chunks
     // summed in order: rayon's own sum splits by thread count, and the floor must not depend
     // on it.
     let floor = (!p.paper).then(|| {
-        let chunk_sums: Vec<f64> = weight
+        let chunk_sums: Vec<f64> = luminance
             .par_chunks(PIXEL_CHUNK)
             .map(|c| c.iter().map(|&y| y as f64).sum())
             .collect();
-        let mean_y = chunk_sums.iter().sum::<f64>() / weight.len() as f64;
+        let mean_y = chunk_sums.iter().sum::<f64>() / luminance.len() as f64;
         p.min_level * mean_y as f32
     });
+    let mut weight = luminance;
     let (threshold, top_median) = weights(&noise, p.top, p.k, &mut weight);
+    let mut alpha = matid;
     let gate = floor.and_then(|floor| {
         let gate = (p.contrast, p.tail, floor);
         spike_gate(&noise, &mut weight, &segments, gate, &mut alpha)

@@ -25,6 +25,7 @@ pub mod mmlt;
 pub mod omc;
 pub mod output;
 pub mod progress;
+pub mod raycount;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -15,6 +15,7 @@
 use crate::cli::COMMAND_ATTR;
 use crate::error::{Error, Result};
 use crate::exrio::{Attr, ExrImage};
+use crate::raycount::{self, RayCounts};
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -26,14 +27,16 @@ pub fn is_gbuffer(channel: &str) -> bool {
         || channel.starts_with("albedo.")
 }
 
-/// Header attributes that may differ between independent passes: their sample counts, seeds and
-/// timings, the commands that made them, and where the mask file lay (its content hash must
-/// still match).
-const PER_PASS_ATTRS: [&str; 9] = [
+/// Header attributes that may differ between independent passes: their sample counts, seeds,
+/// timings and ray counts, the commands that made them, and where the mask file lay (its content
+/// hash must still match).
+const PER_PASS_ATTRS: [&str; 11] = [
     "mixmc.seed",
     "mixmc.spp",
     "mixmc.mutations",
     "mixmc.seconds",
+    raycount::CLOSEST_ATTR,
+    raycount::SHADOW_ATTR,
     "mixmc.partial",
     "mixmc.mask",
     "mixmc.version",
@@ -223,6 +226,16 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
             .filter_map(|(_, i)| i.float_attr("mixmc.seconds"))
             .sum(),
     );
+    // Ray counts only where every input has them: a partial sum would pass for the whole.
+    out.attributes.remove(raycount::CLOSEST_ATTR);
+    out.attributes.remove(raycount::SHADOW_ATTR);
+    let rays: Option<Vec<RayCounts>> = inputs
+        .iter()
+        .map(|(_, i)| RayCounts::read_from(i))
+        .collect();
+    if let Some(rays) = rays {
+        rays.into_iter().sum::<RayCounts>().write_to(&mut out);
+    }
     let partial = inputs
         .iter()
         .any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));

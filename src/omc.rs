@@ -49,6 +49,7 @@ pub fn aov_image(scene: &Scene, s: &OmcSettings, r: &Rendered, gbuf: &GBuffer) -
     img.set_float("mixmc.seed", s.seed as f64);
     img.set_float("mixmc.spp", r.passes as f64);
     img.set_float("mixmc.seconds", r.seconds);
+    r.rays.write_to(&mut img);
     img.set_float("mixmc.max_depth", s.max_depth as f64);
     // The mask's depth rule needs the camera's field of view (projected pixel size).
     img.set_float("mixmc.fov_y", scene.camera.fov_y_deg());

@@ -3,6 +3,7 @@
 
 use crate::film::Film;
 use crate::progress::Progress;
+use crate::raycount::{self, RayCounts};
 use crate::signal;
 use std::time::Instant;
 
@@ -20,6 +21,8 @@ pub struct Rendered {
     pub film: Film,
     pub passes: u64,
     pub seconds: f64,
+    /// Ray queries of the passes (summed like `seconds`).
+    pub rays: RayCounts,
     /// Stopped early by Ctrl-C or SIGTERM.
     pub partial: bool,
 }
@@ -31,6 +34,7 @@ impl Rendered {
             film: Film::new(width, height),
             passes: 0,
             seconds: 0.0,
+            rays: RayCounts::default(),
             partial: false,
         }
     }
@@ -71,8 +75,11 @@ pub fn continue_passes(
         mut film,
         passes: first,
         seconds: before,
+        rays: rays_before,
         ..
     } = prev;
+    // Queries made before the passes (the G-buffer, a snapshot's) are not the render's.
+    raycount::take();
     let start = Instant::now();
     let progress = match budget {
         Budget::Passes(n) => Progress::new(n.min(cap.saturating_sub(first)), label, "spp", quiet),
@@ -105,6 +112,7 @@ pub fn continue_passes(
         film,
         passes: first + done,
         seconds: before + start.elapsed().as_secs_f64(),
+        rays: rays_before + raycount::take(),
         partial,
     }
 }

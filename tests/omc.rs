@@ -3,6 +3,7 @@
 mod util;
 
 use mixmc::exrio::ExrImage;
+use mixmc::raycount::RayCounts;
 use std::path::Path;
 use util::*;
 
@@ -75,6 +76,39 @@ fn same_seed_is_bit_identical_for_any_thread_count() {
         a.get("R"),
         c.get("R"),
         "another seed must give another image"
+    );
+}
+
+#[test]
+fn ray_counts_are_the_renders_own_for_any_thread_count() {
+    let tmp = TempDir::new("rays");
+    let scene = fixture("scenes/cornell-box-tiny.json");
+    let rays = |method: &str, threads: &str| {
+        let out = tmp.join(&format!("{method}{threads}.exr"));
+        let img = render(
+            &scene,
+            &out,
+            &["--method", method, "--spp", "2", "--threads", threads],
+        );
+        (
+            img.width * img.height * 2,
+            RayCounts::read_from(&img).unwrap(),
+        )
+    };
+    let (samples, pt) = rays("pt", "1");
+    let (_, bpt) = rays("bpt", "1");
+    // Each count is a function of the seed and the samples, as the image is.
+    assert_eq!(rays("pt", "2").1, pt);
+    assert_eq!(rays("bpt", "2").1, bpt);
+    // Every path tracing sample starts with a camera ray; in the closed box each hit is followed
+    // by at most one light sample's shadow ray; the G-buffer's camera rays are not the render's.
+    let samples = samples as u64;
+    assert!(pt.closest >= samples && pt.closest < 9 * samples, "{pt:?}");
+    assert!(pt.shadow > 0 && pt.shadow < pt.closest, "{pt:?}");
+    // BPT traces a light sub-path besides the camera's, and connects them.
+    assert!(
+        bpt.closest > pt.closest && bpt.shadow > 2 * pt.shadow,
+        "{bpt:?} vs {pt:?}"
     );
 }
 

@@ -39,7 +39,8 @@ BIN = os.path.join(ROOT, "target/release")
 
 
 def render(tmp, tool, scene, args, seed, key):
-    """One render: (seconds from the header, CPU seconds of the process)."""
+    """One render: (seconds from the header, CPU seconds of the process, (closest, shadow) ray
+    queries from the header)."""
     out = os.path.join(tmp, "x.exr")
     cmd = [os.path.join(BIN, tool), scene, "-o", out, "--seed", str(seed), "-q", *args]
     c = children_cpu()
@@ -48,13 +49,16 @@ def render(tmp, tool, scene, args, seed, key):
         sys.exit(f"bench_scaling.py: {' '.join(cmd)} failed:\n{done.stderr.strip()}")
     cpu = children_cpu() - c
     secs = exr_float(out, key)
+    rays = (exr_float(out, "mixmc.rays_closest"), exr_float(out, "mixmc.rays_shadow"))
     os.remove(out)
-    return secs, cpu
+    return secs, cpu, rays
 
 
 def median_of(runs, f):
+    """Medians of seconds and CPU seconds over seeds 1..runs, and the mean ray counts."""
     got = [f(seed) for seed in range(1, runs + 1)]
-    return statistics.median(g[0] for g in got), statistics.median(g[1] for g in got)
+    rays = tuple(statistics.mean(g[2][i] for g in got) for i in (0, 1))
+    return statistics.median(g[0] for g in got), statistics.median(g[1] for g in got), rays
 
 
 def scene_at(tmp, size):
@@ -94,20 +98,24 @@ def main():
         ]
         rates = {}
         lines += [
-            "| renderer | per pixel | threads | median s | M/s | M per CPU-s | 2 threads ÷ 1 |",
-            "|---|---:|---:|---:|---:|---:|---:|",
+            "| renderer | per pixel | threads | median s | M/s | M per CPU-s | 2 threads ÷ 1 "
+            "| rays per sample: closest + shadow | M rays/s |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for name, tool, args, per_px, key in methods:
             for threads in (1, 2):
-                secs, cpu = median_of(
+                secs, cpu, (closest, shadow) = median_of(
                     a.runs,
                     lambda s: render(tmp, tool, SCENE, [*args, "--threads", str(threads)], s, key),
                 )
+                samples = pixels * per_px
                 rates[(name, threads)] = pixels * per_px / secs / 1e6
                 scale = f"{rates[(name, 2)] / rates[(name, 1)]:.2f}" if threads == 2 else ""
                 lines.append(
                     f"| {name} | {per_px} | {threads} | {secs:.3f} | {rates[(name, threads)]:.3f} "
-                    f"| {pixels * per_px / cpu / 1e6:.3f} | {scale} |"
+                    f"| {pixels * per_px / cpu / 1e6:.3f} | {scale} "
+                    f"| {closest / samples:.2f} + {shadow / samples:.2f} "
+                    f"| {(closest + shadow) / secs / 1e6:.1f} |"
                 )
         lines += [
             "",
@@ -126,7 +134,7 @@ def main():
         base = None
         for size, spp in [(256, 8), (512, 8), (1024, 8), (256, 16), (256, 32)]:
             scene = scene_at(tmp, size)
-            secs, _ = median_of(
+            secs, _, _ = median_of(
                 a.runs,
                 lambda s: render(
                     tmp, "mixmc-omc", scene, ["--method", "pt", "--spp", str(spp), "--threads", "2"], s,

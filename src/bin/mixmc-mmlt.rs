@@ -137,7 +137,8 @@ fn main() -> ExitCode {
             write_beauty_png(png, &img)?;
         }
         println!(
-            "{}: {} mutations/px ({} in all) in {:.2} s, {} chains, acceptance {:.3}, b {:.5}{}",
+            "{}: {} mutations/px ({} in all) in {:.2} s, {} chains, acceptance {:.3}, b {:.5} \
+             ({}){}",
             args.output.display(),
             r.mutations_per_pixel,
             r.mutations,
@@ -145,6 +146,8 @@ fn main() -> ExitCode {
             r.chains,
             r.acceptance,
             r.b,
+            r.rays
+                .summary(r.mutations as f64, "mutation", r.chain_seconds),
             partial_note(r.partial)
         );
         Ok(render_exit(r.partial))

@@ -6,6 +6,7 @@ use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note
 use mixmc::film::write_beauty_png;
 use mixmc::integrators::Method;
 use mixmc::omc::{OmcSettings, render};
+use mixmc::raycount::RayCounts;
 use mixmc::scene::Scene;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -70,10 +71,13 @@ fn main() -> ExitCode {
         }
         let spp = img.float_attr("mixmc.spp").unwrap_or(0.0);
         let secs = img.float_attr("mixmc.seconds").unwrap_or(0.0);
+        let rays = RayCounts::read_from(&img).unwrap_or_default();
+        let samples = spp * (img.width * img.height) as f64;
         println!(
-            "{}: {} spp in {secs:.2} s{}",
+            "{}: {} spp in {secs:.2} s ({}){}",
             args.output.display(),
             spp,
+            rays.summary(samples, "sample", secs),
             partial_note(partial)
         );
         Ok(render_exit(partial))

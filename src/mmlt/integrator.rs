@@ -28,6 +28,7 @@ use crate::integrators::bidir::path::{Vertex, camera_subpath, light_subpath};
 use crate::integrators::bidir::{Paths, Strategies, trace_sample};
 use crate::math::{Rgb, luminance};
 use crate::progress::Progress;
+use crate::raycount::{self, RayCounts};
 use crate::render::Budget;
 use crate::rng::{Rng, Sampler};
 use crate::scene::Scene;
@@ -160,6 +161,8 @@ pub struct MmltResult {
     pub seconds: f64,
     /// The chains' share of `seconds` (without the estimate of b and the bootstrap).
     pub chain_seconds: f64,
+    /// The chains' ray queries (as `chain_seconds`).
+    pub rays: RayCounts,
     pub partial: bool,
     /// Normalisation: the integral of the target over the film, summed over depths.
     pub b: f64,
@@ -366,6 +369,7 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
         Budget::Passes(n) => Progress::new(n, "mmlt", "mutations/px", s.quiet),
         Budget::Seconds(t) => Progress::new((t * 10.0).ceil() as u64, "mmlt", "×0.1 s", s.quiet),
     };
+    raycount::take();
     let chain_start = Instant::now();
     let mut rounds = 0u64;
     let mut partial = false;
@@ -446,6 +450,7 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
         mutations_per_pixel: rounds,
         seconds: start.elapsed().as_secs_f64(),
         chain_seconds: chain_start.elapsed().as_secs_f64(),
+        rays: raycount::take(),
         partial,
         b: b_depth.iter().sum(),
         b_depth,
@@ -726,6 +731,7 @@ pub fn mcmc_image(
     img.set_float("mixmc.mutations_per_pixel", r.mutations_per_pixel as f64);
     img.set_float("mixmc.seconds", r.seconds);
     img.set_float("mixmc.chain_seconds", r.chain_seconds);
+    r.rays.write_to(&mut img);
     img.set_text("mixmc.partial", if r.partial { "true" } else { "false" });
     img.set_float("mixmc.b", r.b);
     img.set_float("mixmc.chains", r.chains as f64);

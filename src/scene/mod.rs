@@ -231,6 +231,7 @@ impl Scene {
     /// Nearest surface along a ray.
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
+        crate::raycount::count_closest();
         let hit = self.bvh.intersect(&Ray { origin, dir }, f32::INFINITY)?;
         let info = &self.tri_info[hit.prim as usize];
         let v = &self.tri_verts[hit.prim as usize];
@@ -260,6 +261,7 @@ impl Scene {
         let oa = self.offset(a, na, d);
         let ob = self.offset(b, nb, -d);
         let seg = ob - oa;
+        crate::raycount::count_shadow();
         !self.bvh.occluded(
             &Ray {
                 origin: oa,

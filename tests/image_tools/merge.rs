@@ -4,6 +4,7 @@
 
 use crate::util::*;
 use mixmc::exrio::ExrImage;
+use mixmc::raycount::RayCounts;
 use std::path::{Path, PathBuf};
 
 fn render(dir: &Path, name: &str, seed: u32, spp: u32) -> PathBuf {
@@ -55,6 +56,9 @@ fn merge_is_the_sample_weighted_mean() {
     check_against_numpy(&ab, &[&a, &b], 4.0);
     let merged = ExrImage::read(&ab).unwrap();
     assert_eq!(merged.text_attr("mixmc.seed").as_deref(), Some("1,2"));
+    // Ray counts add up like the samples.
+    let rays = |p: &Path| RayCounts::read_from(&ExrImage::read(p).unwrap()).unwrap();
+    assert_eq!(RayCounts::read_from(&merged), Some(rays(&a) + rays(&b)));
     // Unequal weights: seed 3 has twice the samples.
     let abc = dir.join("abc.exr");
     merge(&[&a, &b, &c], &abc);

@@ -108,6 +108,7 @@ pub struct Ends {
 fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
     let o = scene.camera.position;
     let target = scene.offset(v.p, v.n, o - v.p);
+    crate::raycount::count_shadow();
     !scene.bvh.occluded(
         &crate::accel::Ray {
             origin: o,

@@ -2,7 +2,8 @@
 //! their time (`mixmc.rays_closest`, `mixmc.rays_shadow`), so a method's cost can be read as rays
 //! per sample and its speed as rays per second. Each thread counts its own queries, because one
 //! counter shared by all threads would move a cache line between cores on every query; `take`
-//! gathers them.
+//! gathers them. Two renders running at once in one process would share their counts (the tools
+//! run one at a time).
 
 use crate::exrio::ExrImage;
 use std::cell::Cell;

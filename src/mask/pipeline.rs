@@ -327,8 +327,8 @@ pub fn build(input: MaskInput, p: &MaskParams) -> Mask {
     let (threshold, top_median) = weights(&noise, p.top, p.k, &mut weight);
     let mut alpha = matid;
     let gate = floor.and_then(|floor| {
-        let gate = (p.contrast, p.tail, floor);
-        spike_gate(&noise, &mut weight, &segments, gate, &mut alpha)
+        let params = (p.contrast, p.tail, floor);
+        spike_gate(&noise, &mut weight, &segments, params, &mut alpha)
     });
     let count = segments.count;
     // The gate's last test and the fill in one pass.

@@ -3,9 +3,9 @@
 //! the method in use. MMLT calls this with a single strategy per sample.
 
 use super::Strategies;
-use super::path::{Kind, Vertex, emission_pdf};
+use super::path::{Kind, Vertex, emission_pdf, joinable, mis_step, remap0};
 use crate::bsdf::Evaluated;
-use crate::math::Rgb;
+use crate::math::{Rgb, Vec3};
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
@@ -57,13 +57,8 @@ pub fn connect(
     if qs.delta || pt.delta {
         return None;
     }
-    let d = qs.p - pt.p;
-    let dist2 = d.length_squared();
-    let w = d / dist2.sqrt();
-    let ends = Ends {
-        cam: pt.towards(scene, w),
-        light: qs.towards(scene, -w),
-    };
+    let ends = Ends::between(scene, pt, qs);
+    let (w, dist2) = (ends.w, ends.dist2);
     let mut raster = None;
     let value = if t == 1 {
         // The camera's importance replaces f and its cosine at the camera end.
@@ -99,10 +94,41 @@ fn weighted(value: Rgb, weight: f32, raster: Option<(f32, f32)>) -> Option<Conne
     })
 }
 
-/// A connection's two end vertices evaluated towards each other: f and both densities.
+/// A connection's two end vertices evaluated towards each other: f and both densities, and the
+/// edge between them.
 pub struct Ends {
     pub cam: Evaluated,
     pub light: Evaluated,
+    /// Unit direction from the camera end to the light end.
+    pub w: Vec3,
+    pub dist2: f32,
+    /// What turns a solid-angle density at the light end into an area density at the camera end
+    /// (`Vertex::to_area` for two non-delta vertices), and the other way round.
+    pub to_cam: f32,
+    pub to_light: f32,
+}
+
+impl Ends {
+    /// The connection of camera end `pt` and light end `qs`, both non-delta.
+    pub fn between(scene: &Scene, pt: &Vertex, qs: &Vertex) -> Ends {
+        let d = qs.p - pt.p;
+        let dist2 = d.length_squared();
+        let w = d / dist2.sqrt();
+        let cos_cam = if pt.on_surface() {
+            w.dot(pt.n).abs()
+        } else {
+            1.0
+        };
+        let inv_dist2 = if dist2 > 0.0 { 1.0 / dist2 } else { 0.0 };
+        Ends {
+            cam: pt.towards(scene, w),
+            light: qs.towards(scene, -w),
+            w,
+            dist2,
+            to_cam: cos_cam * inv_dist2,
+            to_light: w.dot(qs.n).abs() * inv_dist2,
+        }
+    }
 }
 
 fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
@@ -118,17 +144,57 @@ fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
     )
 }
 
-#[inline]
-fn remap0(x: f32) -> f32 {
-    if x != 0.0 { x } else { 1.0 }
+/// The densities a connection changes: the two end vertices' and their predecessors' reverse
+/// densities, each from the other side through the new edge (0 where the vertex does not exist).
+/// With the delta conventions of `to_area`, everything else about the path's strategies is in
+/// the vertices as the walks left them.
+struct Rejoined {
+    /// Camera end x_(t−1) generated from the light side.
+    cam_end: f32,
+    /// x_(t−2) generated from the light side through the camera end.
+    cam_prev: f32,
+    /// Light end generated from the camera side.
+    light_end: f32,
+    /// The light end's predecessor generated from the camera side through it.
+    light_prev: f32,
+}
+
+fn rejoined(
+    scene: &Scene,
+    light: &[Vertex],
+    cam: &[Vertex],
+    s: usize,
+    t: usize,
+    joined: Option<(Option<&Vertex>, &Ends)>,
+) -> Rejoined {
+    let pt = &cam[t - 1];
+    match joined {
+        None => {
+            debug_assert_eq!(s, 0);
+            Rejoined {
+                cam_end: scene.light_pdf_area(pt.tri),
+                cam_prev: emission_pdf(pt.n, pt.wo) * pt.to_prev,
+                light_end: 0.0,
+                light_prev: 0.0,
+            }
+        }
+        Some((sampled, ends)) => {
+            let qs = sampled.unwrap_or(&light[s - 1]);
+            Rejoined {
+                cam_end: ends.light.pdf * ends.to_cam,
+                cam_prev: ends.cam.pdf_rev * pt.to_prev,
+                light_end: ends.cam.pdf * ends.to_light,
+                light_prev: ends.light.pdf_rev * qs.to_prev,
+            }
+        }
+    }
 }
 
 /// Balance-heuristic weight of strategy (s, t) among the strategies of `strategies` that could
-/// have made the same path. The path is laid out camera first: `x[i]` for i < t from `cam`, then
-/// the light sub-path reversed. `pf[i]` is `x[i]`'s area density from the camera side, `pl[i]` from
-/// the light side; moving the connection one vertex multiplies the path density by pf/pl.
-/// `joined` (for s ≥ 1): the light vertex sampled afresh for s = 1, if any, and the two ends
-/// evaluated towards each other, whose densities are the ones the connection changes.
+/// have made the same path. `joined` (for s ≥ 1): the light vertex sampled afresh for s = 1, if
+/// any, and the two ends evaluated towards each other, whose densities are the ones the
+/// connection changes. Full BPT takes its sums from the vertices (O(1)); the other methods'
+/// strategy subsets walk the path.
 pub fn mis_weight(
     scene: &Scene,
     light: &[Vertex],
@@ -138,19 +204,65 @@ pub fn mis_weight(
     joined: Option<(Option<&Vertex>, &Ends)>,
     strategies: Strategies,
 ) -> f32 {
-    let sampled = joined.and_then(|(v, _)| v);
-    let n = s + t;
-    let vert = |i: usize| -> &Vertex {
-        if i < t {
-            &cam[i]
-        } else {
-            let k = n - 1 - i;
-            match (k, sampled) {
-                (0, Some(v)) => v,
-                _ => &light[k],
-            }
+    let r = rejoined(scene, light, cam, s, t, joined);
+    if strategies != Strategies::Bpt {
+        return mis_weight_walked(
+            light,
+            cam,
+            s,
+            t,
+            joined.and_then(|(v, _)| v),
+            &r,
+            strategies,
+        );
+    }
+    let cam_sum = side_sum(cam, &cam[t - 1], t - 1, r.cam_end, r.cam_prev);
+    let light_sum = match s {
+        0 => 0.0,
+        _ => {
+            let qs = joined.and_then(|(v, _)| v).unwrap_or(&light[s - 1]);
+            side_sum(light, qs, s - 1, r.light_end, r.light_prev)
         }
     };
+    1.0 / (1.0 + cam_sum + light_sum)
+}
+
+/// Σ p_m / p_(e+1) over full BPT's strategies that take only m ≤ e vertices of `path` (see
+/// `Vertex::mis`) when its vertex e, `end` (which may stand in for `path[e]`), is joined to the
+/// other sub-path: the stored sum up to e − 2, continued through the predecessor's and the end's
+/// new reverse densities.
+fn side_sum(path: &[Vertex], end: &Vertex, e: usize, end_rev: f32, prev_rev: f32) -> f32 {
+    let before = match e {
+        0 => 0.0,
+        _ => {
+            let prev = &path[e - 1];
+            let sum = if e >= 2 { path[e - 2].mis } else { 0.0 };
+            let ratio = remap0(prev_rev) / remap0(prev.pdf_fwd);
+            mis_step(ratio, joinable(path, e - 1, false), sum)
+        }
+    };
+    mis_step(
+        remap0(end_rev) / remap0(end.pdf_fwd),
+        joinable(path, e, true),
+        before,
+    )
+}
+
+/// The balance heuristic over any subset of strategies, by walking the whole path. The path is
+/// laid out camera first: `x[i]` for i < t from `cam`, then the light sub-path reversed (its
+/// first vertex replaced by `sampled`, if any). `pf[i]` is `x[i]`'s area density from the camera
+/// side, `pl[i]` from the light side; moving the connection one vertex multiplies the path
+/// density by pf/pl. For full BPT it is the reference the recursive sums are tested against.
+fn mis_weight_walked(
+    light: &[Vertex],
+    cam: &[Vertex],
+    s: usize,
+    t: usize,
+    sampled: Option<&Vertex>,
+    r: &Rejoined,
+    strategies: Strategies,
+) -> f32 {
+    let n = s + t;
     let (mut pf_s, mut pl_s, mut delta_s) = (
         [0.0f32; STACK_VERTICES],
         [0.0f32; STACK_VERTICES],
@@ -163,8 +275,8 @@ pub fn mis_weight(
         (pf_h, pl_h, delta_h) = (vec![0.0f32; n], vec![0.0f32; n], vec![false; n]);
         (&mut pf_h, &mut pl_h, &mut delta_h)
     };
-    // Camera vertices in order, then the light sub-path reversed (its first vertex, if sampled
-    // afresh, replaced): two straight loops instead of a branch per vertex.
+    // Camera vertices in order, then the light sub-path reversed: two straight loops instead of
+    // a branch per vertex.
     for (i, v) in cam[..t].iter().enumerate() {
         (pf[i], pl[i], delta[i]) = (v.pdf_fwd, v.pdf_rev, v.delta);
     }
@@ -178,27 +290,15 @@ pub fn mis_weight(
     }
     // The last vertex lies on a light: what matters there is the (non-delta) area emission.
     delta[n - 1] = false;
-    let pt = vert(t - 1);
-    match joined {
-        None => {
-            debug_assert_eq!(s, 0);
-            pl[t - 1] = scene.light_pdf_area(pt.tri);
-            if t >= 2 {
-                let prev = vert(t - 2);
-                pl[t - 2] = pt.to_area(emission_pdf(pt.n, (prev.p - pt.p).normalize()), prev);
-            }
-        }
-        Some((_, ends)) => {
-            let qs = vert(t);
-            pf[t] = pt.to_area(ends.cam.pdf, qs);
-            pl[t - 1] = qs.to_area(ends.light.pdf, pt);
-            if t >= 2 {
-                pl[t - 2] = pt.to_area(ends.cam.pdf_rev, vert(t - 2));
-            }
-            if s >= 2 {
-                pf[t + 1] = qs.to_area(ends.light.pdf_rev, vert(t + 1));
-            }
-        }
+    pl[t - 1] = r.cam_end;
+    if t >= 2 {
+        pl[t - 2] = r.cam_prev;
+    }
+    if s >= 1 {
+        pf[t] = r.light_end;
+    }
+    if s >= 2 {
+        pf[t + 1] = r.light_prev;
     }
     let x1_delta = delta[1];
     // A strategy with t' camera vertices exists if its connection joins two non-delta vertices
@@ -227,7 +327,7 @@ pub fn mis_weight(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrators::bidir::path::{camera_subpath, light_subpath};
+    use crate::integrators::bidir::path::{camera_subpath, fold_mis, light_subpath};
     use crate::math::Vec3;
     use crate::rng::Rng;
     use std::path::Path;
@@ -241,10 +341,12 @@ mod tests {
         for i in 0..t {
             let mut v = xs[i];
             v.kind = if i == 0 { Kind::Camera } else { Kind::Surface };
+            v.to_prev = 0.0;
             if i > 0 {
                 v.wo = dir(i, i - 1);
                 let prev = &cam[i - 1];
                 v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i - 1, i)).pdf, &v);
+                v.to_prev = v.to_area(1.0, prev);
             }
             cam.push(v);
         }
@@ -256,45 +358,55 @@ mod tests {
             if k == 0 {
                 v.pdf_fwd = scene.light_pdf_area(v.tri);
                 v.wo = Vec3::ZERO;
+                v.to_prev = 0.0;
             } else {
                 v.wo = dir(i, i + 1);
                 let prev = &light[k - 1];
                 v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i + 1, i)).pdf, &v);
+                v.to_prev = v.to_area(1.0, prev);
             }
             light.push(v);
         }
-        // Reverse densities of inner vertices, as the walks store them.
+        // Reverse densities of inner vertices and the MIS sums, as the walks store them.
         for side in [&mut cam, &mut light] {
             for j in 0..side.len().saturating_sub(2) {
                 let (a, b) = (side[j + 1], side[j + 2]);
                 let back = a.towards(scene, (b.p - a.p).normalize()).pdf_rev;
                 side[j].pdf_rev = a.to_area(back, &side[j]);
+                fold_mis(side, j);
             }
         }
         (cam, light)
     }
 
+    /// The caustic scene (glass and mirrors: delta vertices in many paths).
+    fn caustic() -> Scene {
+        Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/caustic.json"))
+            .unwrap()
+    }
+
+    /// A camera sub-path through a random pixel of the 128² caustic scene and a light sub-path.
+    fn walks(
+        scene: &Scene,
+        rng: &mut Rng,
+        (cam_len, light_len): (usize, usize),
+        roulette: bool,
+    ) -> (Vec<Vertex>, Vec<Vertex>) {
+        let (mut cam, mut light) = (Vec::new(), Vec::new());
+        let u = rng.next_2d();
+        let (x, y) = (u.x * 128.0, u.y * 128.0);
+        camera_subpath(scene, x, y, rng, cam_len, roulette, &mut cam);
+        light_subpath(scene, rng, light_len, roulette, &mut light);
+        (cam, light)
+    }
+
     #[test]
     fn mis_weights_of_all_strategies_sum_to_one() {
-        let scene = Scene::load(
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/scenes/caustic.json"),
-        )
-        .unwrap();
+        let scene = caustic();
         let mut checked = 0;
         for i in 0..400u64 {
             let mut rng = Rng::new(3, i, 0);
-            let (mut cam, mut light) = (Vec::new(), Vec::new());
-            let u = rng.next_2d();
-            camera_subpath(
-                &scene,
-                u.x * 128.0,
-                u.y * 128.0,
-                &mut rng,
-                6,
-                false,
-                &mut cam,
-            );
-            light_subpath(&scene, &mut rng, 5, false, &mut light);
+            let (cam, light) = walks(&scene, &mut rng, (6, 5), false);
             for t in 2..=cam.len() {
                 for s in [0usize, 2, 3, 4, 5] {
                     if s > light.len()
@@ -317,14 +429,8 @@ mod tests {
                                 continue;
                             }
                             let (c, l) = split(&scene, &xs, tp);
-                            let ends = (n > tp).then(|| {
-                                let (pt, qs) = (&c[tp - 1], &l[n - tp - 1]);
-                                let w = (qs.p - pt.p).normalize();
-                                Ends {
-                                    cam: pt.towards(&scene, w),
-                                    light: qs.towards(&scene, -w),
-                                }
-                            });
+                            let ends =
+                                (n > tp).then(|| Ends::between(&scene, &c[tp - 1], &l[n - tp - 1]));
                             let joined = ends.as_ref().map(|e| (None, e));
                             sum +=
                                 mis_weight(&scene, &l, &c, n - tp, tp, joined, strategies) as f64;
@@ -339,5 +445,49 @@ mod tests {
             }
         }
         assert!(checked > 200, "only {checked} paths checked");
+    }
+
+    /// Full BPT's O(1) weights (sums carried by the walks' vertices) against the walk over the
+    /// whole path, for every strategy of sub-paths from the walks themselves, next-event
+    /// estimation's fresh light vertex included, in a scene with glass and mirrors.
+    #[test]
+    fn recursive_weights_equal_the_walked_ones() {
+        let scene = caustic();
+        let (mut checked, mut partial) = (0, 0);
+        for i in 0..400u64 {
+            let mut rng = Rng::new(5, i, 0);
+            let (cam, light) = walks(&scene, &mut rng, (7, 6), true);
+            let fresh = Vertex::light(&scene, &scene.sample_light(rng.next_1d(), rng.next_2d()));
+            for t in 1..=cam.len() {
+                for s in 0..=light.len() {
+                    // Connections join non-delta vertices; s = 0 needs a surface to hit.
+                    let pt = &cam[t - 1];
+                    let joins = s >= 1 && !pt.delta && !light[s - 1].delta;
+                    if !(joins || s == 0 && t >= 2) {
+                        continue;
+                    }
+                    let fresh_too = if s == 1 { 2 } else { 1 };
+                    for sampled in [None, Some(&fresh)].into_iter().take(fresh_too) {
+                        let ends = (s >= 1)
+                            .then(|| Ends::between(&scene, pt, sampled.unwrap_or(&light[s - 1])));
+                        let joined = ends.as_ref().map(|e| (sampled, e));
+                        let fast = mis_weight(&scene, &light, &cam, s, t, joined, Strategies::Bpt);
+                        let r = rejoined(&scene, &light, &cam, s, t, joined);
+                        let walked =
+                            mis_weight_walked(&light, &cam, s, t, sampled, &r, Strategies::Bpt);
+                        assert!(
+                            (fast - walked).abs() <= 1e-5 * walked.abs().max(1e-3),
+                            "s={s} t={t}: recursive {fast} vs walked {walked}"
+                        );
+                        checked += 1;
+                        partial += usize::from(walked < 0.99);
+                    }
+                }
+            }
+        }
+        assert!(
+            checked > 2000 && partial > 1000,
+            "{checked} strategies, {partial} weighted below 1"
+        );
     }
 }

@@ -35,6 +35,17 @@ pub struct Vertex {
     pub pdf_fwd: f32,
     /// Area density of generating it from the other side.
     pub pdf_rev: f32,
+    /// Full BPT's running MIS sum (Georgiev et al.'s recursive form of Veach's balance
+    /// heuristic): Σ p_m / p_(k+1) over the strategies that take only the first m ≤ k vertices of
+    /// this sub-path (the rest from the other side), where p_j is the density of the path with j
+    /// vertices from this side and everything after this vertex k is the same for all of them.
+    /// Lets `connect` weight a strategy in O(1) instead of walking both sub-paths. Valid once
+    /// `pdf_rev` is (see [`fold_mis`]); the other methods' strategy subsets do not use it.
+    pub mis: f32,
+    /// `to_area(1, predecessor)`: turns a solid-angle density at this vertex towards its
+    /// predecessor into an area density there (0 for a sub-path's first vertex). Every
+    /// connection needs it for the reverse density its end gives the vertex before.
+    pub to_prev: f32,
 }
 
 impl Vertex {
@@ -50,6 +61,8 @@ impl Vertex {
             delta: false,
             pdf_fwd: 1.0,
             pdf_rev: 0.0,
+            mis: 0.0,
+            to_prev: 0.0,
         }
     }
 
@@ -66,6 +79,8 @@ impl Vertex {
             delta: false,
             pdf_fwd: ls.pdf_area,
             pdf_rev: 0.0,
+            mis: 0.0,
+            to_prev: 0.0,
         }
     }
 
@@ -131,6 +146,44 @@ impl Vertex {
     }
 }
 
+/// A density in a ratio of strategies' densities: delta lobes store 0 (see `random_walk`), and
+/// their Dirac factors cancel between the strategies that can share the path.
+#[inline]
+pub fn remap0(x: f32) -> f32 {
+    if x != 0.0 { x } else { 1.0 }
+}
+
+/// Whether a strategy can join vertex m − 1 of a sub-path to vertex m from the other side (both
+/// non-delta; `m_is_end`: vertex m ends a connection, which only ever joins non-delta vertices,
+/// or lies on a light), or for m = 0 whether the sub-path may hand all its vertices to the other
+/// side (a light sub-path: the camera path hits the light by itself; the camera is never hit).
+#[inline]
+pub fn joinable(path: &[Vertex], m: usize, m_is_end: bool) -> bool {
+    if m == 0 {
+        path[0].kind == Kind::Light
+    } else {
+        !path[m - 1].delta && (m_is_end || !path[m].delta)
+    }
+}
+
+/// One step of the MIS recursion: the sum after a vertex whose density ratio (other side ÷ own
+/// side) is `ratio`, from the sum `before` it and whether the strategy joining just before it
+/// exists. Zero stays zero even for an infinite ratio, as the loop over strategies it replaces
+/// never multiplies a term it does not add.
+#[inline]
+pub fn mis_step(ratio: f32, joins: bool, before: f32) -> f32 {
+    let inner = f32::from(u8::from(joins)) + before;
+    if inner > 0.0 { ratio * inner } else { 0.0 }
+}
+
+/// Fold vertex k, whose reverse density has just become known, into its sub-path's MIS sums.
+pub fn fold_mis(path: &mut [Vertex], k: usize) {
+    let before = if k >= 1 { path[k - 1].mis } else { 0.0 };
+    let v = &path[k];
+    let ratio = remap0(v.pdf_rev) / remap0(v.pdf_fwd);
+    path[k].mis = mis_step(ratio, joinable(path, k, false), before);
+}
+
 /// Density of cosine-weighted emission from the front side of an area light.
 #[inline]
 pub fn emission_pdf(n: Vec3, w: Vec3) -> f32 {
@@ -193,8 +246,11 @@ pub fn random_walk(
             delta: material.bsdf.is_delta(),
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
+            mis: 0.0,
+            to_prev: 0.0,
         };
         v.pdf_fwd = prev.to_area(pdf, &v);
+        v.to_prev = v.to_area(1.0, &prev);
         path.push(v);
         if path.len() >= max_vertices {
             break;
@@ -210,7 +266,8 @@ pub fn random_walk(
         let pdf_fwd_sa = if s.delta { 0.0 } else { s.pdf };
         let n = path.len();
         let cur = path[n - 1];
-        path[n - 2].pdf_rev = cur.to_area(s.pdf_rev, &path[n - 2]);
+        path[n - 2].pdf_rev = s.pdf_rev * cur.to_prev;
+        fold_mis(path, n - 2);
         if beta == Rgb::ZERO || !beta.is_finite() {
             break;
         }

@@ -1,6 +1,7 @@
 //! Evaluating one (s, t) strategy: join the first s vertices of a light sub-path with the first t
 //! of a camera sub-path, and weight the result by the balance heuristic over the strategies of
-//! the method in use. MMLT calls this with a single strategy per sample.
+//! the method in use (full BPT's in O(1), from the sums its sub-paths carry). MMLT calls this with
+//! a single strategy per sample, weighted like full BPT's.
 
 use super::Strategies;
 use super::path::{Kind, Vertex, emission_pdf, joinable, mis_step, remap0};
@@ -15,8 +16,8 @@ pub struct Connection {
     pub raster: Option<(f32, f32)>,
 }
 
-/// Paths up to this many vertices keep their MIS densities on the stack; longer ones (rare:
-/// max_depth above 30) use the heap.
+/// The walked weights (LT, IBPT) keep the densities of paths up to this many vertices on the
+/// stack; longer ones (rare: max_depth above 30) use the heap.
 const STACK_VERTICES: usize = 32;
 
 /// Strategy (s, t), MIS-weighted over `strategies`. For s = 1 the light point is sampled afresh

@@ -109,11 +109,11 @@ def main():
                     lambda s: render(tmp, tool, SCENE, [*args, "--threads", str(threads)], s, key),
                 )
                 samples = pixels * per_px
-                rates[(name, threads)] = pixels * per_px / secs / 1e6
+                rates[(name, threads)] = samples / secs / 1e6
                 scale = f"{rates[(name, 2)] / rates[(name, 1)]:.2f}" if threads == 2 else ""
                 lines.append(
                     f"| {name} | {per_px} | {threads} | {secs:.3f} | {rates[(name, threads)]:.3f} "
-                    f"| {pixels * per_px / cpu / 1e6:.3f} | {scale} "
+                    f"| {samples / cpu / 1e6:.3f} | {scale} "
                     f"| {closest / samples:.2f} + {shadow / samples:.2f} "
                     f"| {(closest + shadow) / secs / 1e6:.1f} |"
                 )

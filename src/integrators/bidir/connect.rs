@@ -4,9 +4,9 @@
 //! a single strategy per sample, weighted like full BPT's.
 
 use super::Strategies;
-use super::path::{Kind, Vertex, emission_pdf, joinable, mis_step, remap0};
+use super::path::{Edge, Kind, Vertex, emission_pdf, joinable, mis_step, remap0};
 use crate::bsdf::Evaluated;
-use crate::math::{Rgb, Vec3};
+use crate::math::Rgb;
 use crate::rng::Sampler;
 use crate::scene::Scene;
 
@@ -59,17 +59,16 @@ pub fn connect(
         return None;
     }
     let ends = Ends::between(scene, pt, qs);
-    let (w, dist2) = (ends.w, ends.dist2);
+    let edge = &ends.edge;
     let mut raster = None;
     let value = if t == 1 {
         // The camera's importance replaces f and its cosine at the camera end.
-        raster = Some(scene.camera.raster(w)?);
-        let cos_cam = w.dot(scene.camera.forward);
-        qs.beta
-            * ends.light.f
-            * (w.dot(qs.n).abs() * scene.camera.importance(cos_cam) * cos_cam / dist2)
+        raster = Some(scene.camera.raster(edge.w)?);
+        let cos_cam = edge.w.dot(scene.camera.forward);
+        qs.beta * ends.light.f * (edge.to_b * scene.camera.importance(cos_cam) * cos_cam)
     } else {
-        let g = w.dot(pt.n).abs() * w.dot(qs.n).abs() / dist2;
+        // The geometry term: the light end's area factor times the camera end's cosine.
+        let g = edge.cos_a * edge.to_b;
         qs.beta * ends.light.f * g * ends.cam.f * pt.beta
     };
     if value == Rgb::ZERO || !value.is_finite() {
@@ -96,38 +95,21 @@ fn weighted(value: Rgb, weight: f32, raster: Option<(f32, f32)>) -> Option<Conne
 }
 
 /// A connection's two end vertices evaluated towards each other: f and both densities, and the
-/// edge between them.
+/// edge from the camera end to the light end.
 pub struct Ends {
     pub cam: Evaluated,
     pub light: Evaluated,
-    /// Unit direction from the camera end to the light end.
-    pub w: Vec3,
-    pub dist2: f32,
-    /// What turns a solid-angle density at the light end into an area density at the camera end
-    /// (`Vertex::to_area` for two non-delta vertices), and the other way round.
-    pub to_cam: f32,
-    pub to_light: f32,
+    pub edge: Edge,
 }
 
 impl Ends {
     /// The connection of camera end `pt` and light end `qs`, both non-delta.
     pub fn between(scene: &Scene, pt: &Vertex, qs: &Vertex) -> Ends {
-        let d = qs.p - pt.p;
-        let dist2 = d.length_squared();
-        let w = d / dist2.sqrt();
-        let cos_cam = if pt.on_surface() {
-            w.dot(pt.n).abs()
-        } else {
-            1.0
-        };
-        let inv_dist2 = if dist2 > 0.0 { 1.0 / dist2 } else { 0.0 };
+        let edge = Edge::new(pt, qs);
         Ends {
-            cam: pt.towards(scene, w),
-            light: qs.towards(scene, -w),
-            w,
-            dist2,
-            to_cam: cos_cam * inv_dist2,
-            to_light: w.dot(qs.n).abs() * inv_dist2,
+            cam: pt.towards(scene, edge.w),
+            light: qs.towards(scene, -edge.w),
+            edge,
         }
     }
 }
@@ -147,7 +129,7 @@ fn visible_from_camera(scene: &Scene, v: &Vertex) -> bool {
 
 /// The densities a connection changes: the two end vertices' and their predecessors' reverse
 /// densities, each from the other side through the new edge (0 where the vertex does not exist).
-/// With the delta conventions of `to_area`, everything else about the path's strategies is in
+/// With [`Edge`]'s delta convention, everything else about the path's strategies is in
 /// the vertices as the walks left them.
 struct Rejoined {
     /// Camera end x_(t−1) generated from the light side.
@@ -182,9 +164,9 @@ fn rejoined(
         Some((sampled, ends)) => {
             let qs = sampled.unwrap_or(&light[s - 1]);
             Rejoined {
-                cam_end: ends.light.pdf * ends.to_cam,
+                cam_end: ends.light.pdf * ends.edge.to_a,
                 cam_prev: ends.cam.pdf_rev * pt.to_prev,
-                light_end: ends.cam.pdf * ends.to_light,
+                light_end: ends.cam.pdf * ends.edge.to_b,
                 light_prev: ends.light.pdf_rev * qs.to_prev,
             }
         }
@@ -346,8 +328,9 @@ mod tests {
             if i > 0 {
                 v.wo = dir(i, i - 1);
                 let prev = &cam[i - 1];
-                v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i - 1, i)).pdf, &v);
-                v.to_prev = v.to_area(1.0, prev);
+                let edge = Edge::new(prev, &v);
+                v.pdf_fwd = prev.towards(scene, edge.w).pdf * edge.to_b;
+                v.to_prev = edge.to_a;
             }
             cam.push(v);
         }
@@ -363,8 +346,9 @@ mod tests {
             } else {
                 v.wo = dir(i, i + 1);
                 let prev = &light[k - 1];
-                v.pdf_fwd = prev.to_area(prev.towards(scene, dir(i + 1, i)).pdf, &v);
-                v.to_prev = v.to_area(1.0, prev);
+                let edge = Edge::new(prev, &v);
+                v.pdf_fwd = prev.towards(scene, edge.w).pdf * edge.to_b;
+                v.to_prev = edge.to_a;
             }
             light.push(v);
         }
@@ -373,7 +357,7 @@ mod tests {
             for j in 0..side.len().saturating_sub(2) {
                 let (a, b) = (side[j + 1], side[j + 2]);
                 let back = a.towards(scene, (b.p - a.p).normalize()).pdf_rev;
-                side[j].pdf_rev = a.to_area(back, &side[j]);
+                side[j].pdf_rev = back * Edge::new(&a, &side[j]).to_b;
                 fold_mis(side, j);
             }
         }

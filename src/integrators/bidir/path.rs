@@ -42,8 +42,8 @@ pub struct Vertex {
     /// Lets `connect` weight a strategy in O(1) instead of walking both sub-paths. Valid once
     /// `pdf_rev` is (see [`fold_mis`]); the other methods' strategy subsets do not use it.
     pub mis: f32,
-    /// `to_area(1, predecessor)`: turns a solid-angle density at this vertex towards its
-    /// predecessor into an area density there (0 for a sub-path's first vertex). Every
+    /// [`Edge`]'s factor from this vertex back to its predecessor: turns a solid-angle density
+    /// here towards it into an area density there (0 for a sub-path's first vertex). Every
     /// connection needs it for the reverse density its end gives the vertex before.
     pub to_prev: f32,
 }
@@ -113,36 +113,65 @@ impl Vertex {
                 .evaluate(self.n, self.wo, w),
         }
     }
+}
 
-    /// Convert a solid-angle density at this vertex towards `next` into an area density at `next`.
+/// The segment from vertex `a` to vertex `b`, and what converts densities across it: one square
+/// root and one division serve a walk's step (both of its densities) and a connection (its value
+/// and both ends' densities).
+pub struct Edge {
+    /// Unit direction from `a` to `b`.
+    pub w: Vec3,
+    pub dist2: f32,
+    /// |cos| between `w` and each end's normal (1 at the camera, which is not on a surface).
+    pub cos_a: f32,
+    pub cos_b: f32,
+    /// Turns a solid-angle density at `a` towards `b` into an area density at `b`.
     ///
-    /// Into a delta vertex the density is kept per projected solid angle at this vertex instead:
-    /// a specular chain between two connectable vertices x_a and x_b then contributes
+    /// Into a delta vertex the density is kept per projected solid angle at the vertex it leaves
+    /// instead: a specular chain between two connectable vertices x_a and x_b then contributes
     /// p_ω(x_a)/cos_a on one side and p_ω(x_b)/cos_b on the other, whose ratio is the true one
     /// (the chain's generalised geometry term is symmetric and cancels). Converting through the
     /// chain's first segment instead (pbrt's convention) is off by the ratio of the two end
     /// segments' geometry terms, which over-weights a camera path hitting a small light through
     /// glass by orders of magnitude and leaves fireflies in caustics.
-    pub fn to_area(&self, pdf: f32, next: &Vertex) -> f32 {
-        let d = next.p - self.p;
+    pub to_b: f32,
+    /// The same from `b` towards `a`, into an area density at `a`.
+    pub to_a: f32,
+}
+
+impl Edge {
+    pub fn new(a: &Vertex, b: &Vertex) -> Edge {
+        let d = b.p - a.p;
         let dist2 = d.length_squared();
-        if dist2 == 0.0 {
-            return 0.0;
-        }
-        if next.delta && next.kind == Kind::Surface {
-            let cos = if self.on_surface() {
-                (d.dot(self.n) / dist2.sqrt()).abs()
+        let w = d / dist2.sqrt();
+        let cos = |v: &Vertex| {
+            if v.on_surface() {
+                w.dot(v.n).abs()
             } else {
                 1.0
-            };
-            return if cos > 0.0 { pdf / cos } else { 0.0 };
-        }
-        let cos = if next.on_surface() {
-            (d.dot(next.n) / dist2.sqrt()).abs()
-        } else {
-            1.0
+            }
         };
-        pdf * cos / dist2
+        let (cos_a, cos_b) = (cos(a), cos(b));
+        let inv_dist2 = if dist2 > 0.0 { 1.0 / dist2 } else { 0.0 };
+        let into = |to: &Vertex, cos_from: f32, cos_to: f32| {
+            if to.delta && to.kind == Kind::Surface {
+                if cos_from > 0.0 && dist2 > 0.0 {
+                    1.0 / cos_from
+                } else {
+                    0.0
+                }
+            } else {
+                cos_to * inv_dist2
+            }
+        };
+        Edge {
+            w,
+            dist2,
+            cos_a,
+            cos_b,
+            to_b: into(b, cos_a, cos_b),
+            to_a: into(a, cos_b, cos_a),
+        }
     }
 }
 
@@ -249,8 +278,9 @@ pub fn random_walk(
             mis: 0.0,
             to_prev: 0.0,
         };
-        v.pdf_fwd = prev.to_area(pdf, &v);
-        v.to_prev = v.to_area(1.0, &prev);
+        let edge = Edge::new(&prev, &v);
+        v.pdf_fwd = pdf * edge.to_b;
+        v.to_prev = edge.to_a;
         path.push(v);
         if path.len() >= max_vertices {
             break;

@@ -99,9 +99,13 @@ impl RenderArgs {
         max_depth(self.max_depth, scene_default)
     }
 
-    /// Size rayon's global pool; call once, before any parallel work.
-    pub fn init_threads(&self) -> Result<()> {
-        init_threads(self.threads)
+    /// [`init_threads`] with `--threads`.
+    ///
+    /// # Safety
+    /// As for [`init_threads`]: at the start of `main`, before any other thread exists.
+    pub unsafe fn init_threads(&self) -> Result<()> {
+        // SAFETY: the caller's.
+        unsafe { init_threads(self.threads) }
     }
 }
 
@@ -135,13 +139,20 @@ pub fn max_depth(asked: Option<u32>, scene_default: u32) -> Result<u32> {
     }
 }
 
-/// Size rayon's global pool to `--threads` (all cores when absent); call once, before any
-/// parallel work.
-pub fn init_threads(threads: Option<usize>) -> Result<()> {
+/// Size rayon's global pool to `--threads` (all cores when absent), and the exr crate's
+/// compression and decompression pools with it: it builds its own for every file, sized by
+/// `RAYON_NUM_THREADS` or else all cores, so without the variable `--threads 1` still read and
+/// wrote EXRs on every core.
+///
+/// # Safety
+/// Sets an environment variable: call it at the start of `main`, before any other thread exists.
+pub unsafe fn init_threads(threads: Option<usize>) -> Result<()> {
     if let Some(n) = threads {
         if n == 0 {
             return Err(Error::new("--threads must be at least 1"));
         }
+        // SAFETY: the caller's: no other thread exists yet to read the environment.
+        unsafe { std::env::set_var("RAYON_NUM_THREADS", n.to_string()) };
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()

@@ -18,6 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// Which renderer wrote the input.
@@ -365,7 +366,8 @@ impl Source {
             Preset::Mitsuba => (self.channel(0, "depth.T")?, |z| z <= 0.0),
         };
         Ok(raw
-            .iter()
+            .par_iter()
+            .with_min_len(1 << 16)
             .map(|&z| if miss(z) { f32::INFINITY } else { z })
             .collect())
     }

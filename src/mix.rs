@@ -170,8 +170,9 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let (input, warnings) = MaskInput::from_source(&snapshot_source)?;
     let snapshot = snapshot_source.into_image();
     let m = build(input, &params);
+    let (switched, complex_fraction, alpha) = (m.switched, m.complex_fraction, m.alpha.clone());
     let mask_img = mask_image(
-        &m,
+        m,
         &params,
         &snapshot_name,
         Some(scene.path.display().to_string()),
@@ -180,7 +181,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     let share = s
         .split
-        .mcmc_share(if m.switched { 1.0 } else { m.complex_fraction });
+        .mcmc_share(if switched { 1.0 } else { complex_fraction });
     let omc_end = (1.0 - share) * s.seconds;
     let left = omc_end - start.elapsed().as_secs_f64();
     let label = format!("mix 2/3: {}", s.omc.name());
@@ -194,7 +195,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     let mut partial = r.partial;
     let mask_name = dir.join(KEEP_NAMES[2]);
-    let mmlt_mask = Mask::from_alpha(&mask_name, w, h, m.alpha.clone());
+    let mmlt_mask = Mask::from_alpha(&mask_name, w, h, alpha);
     let (mcmc, mmlt_seconds) = if partial {
         (None, 0.0)
     } else {
@@ -252,9 +253,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         composite: composite_start.elapsed().as_secs_f64(),
         total: start.elapsed().as_secs_f64(),
     };
-    let switched = m.switched;
     set_header(&mut image, scene, s, &omc, &mcmc, share, &phases, partial);
-    image.set_float("mixmc.complex_fraction", m.complex_fraction);
+    image.set_float("mixmc.complex_fraction", complex_fraction);
     image.set_text("mixmc.switched", if switched { "true" } else { "false" });
     Ok(Mixed {
         snapshot,
@@ -262,7 +262,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         mask: mask_img,
         mcmc,
         image,
-        complex_fraction: m.complex_fraction,
+        complex_fraction,
         switched,
         mcmc_share: share,
         phases,

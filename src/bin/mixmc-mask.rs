@@ -145,7 +145,8 @@ fn fov(args: &Args, src: &Source) -> (f32, &'static str) {
 fn main() -> ExitCode {
     main_with("mixmc-mask", || {
         let args = Args::parse();
-        init_threads(args.threads)?;
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { init_threads(args.threads) }?;
         let src = args.layout.open(&args.inputs)?;
         let input_path = &args.inputs[0];
         let (fov_y, fov_source) = fov(&args, &src);
@@ -161,6 +162,10 @@ fn main() -> ExitCode {
                 input_path.display()
             );
         }
+        // The files' pixels are copied into `input`: freed before the computation, their pages
+        // serve its fresh buffers (kept, the kernel must find or compact others: slower).
+        let scene = src.text_attr("mixmc.scene");
+        drop(src);
         // The mask takes the input's buffers for its own; the overlay keeps the light.
         let indirect = std::mem::take(&mut input.indirect);
         let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
@@ -170,24 +175,9 @@ fn main() -> ExitCode {
         if let Some(dir) = &args.inspect {
             inspect::write_steps(dir, &indirect, &mask)?;
         }
-        let mut out = mask_image(
-            &mask,
-            &params,
-            &input_path.display().to_string(),
-            src.text_attr("mixmc.scene"),
-        );
-        out.set_text(COMMAND_ATTR, command_line());
-        out.into_file(&args.output, false)?;
-        let switch_note = if mask.switched {
-            format!(
-                "; above --switch {}: MCMC only, alpha = 1 everywhere",
-                params.switch
-            )
-        } else {
-            String::new()
-        };
-        if args.json {
-            let summary = serde_json::json!({
+        // What is said about the mask is worded first: writing it gives its buffers to the file.
+        let summary = if args.json {
+            serde_json::json!({
                 "output": args.output.display().to_string(),
                 "width": mask.width,
                 "height": mask.height,
@@ -202,17 +192,29 @@ fn main() -> ExitCode {
                 "fov_source": fov_source,
                 "compute_seconds": seconds,
                 "compute_cpu_seconds": cpu_seconds,
-            });
-            println!("{summary}");
+            })
+            .to_string()
         } else {
-            println!(
+            let switch_note = if mask.switched {
+                format!(
+                    "; above --switch {}: MCMC only, alpha = 1 everywhere",
+                    params.switch
+                )
+            } else {
+                String::new()
+            };
+            format!(
                 "{}: complex {:.2}% of pixels, {} of {} segments{switch_note}",
                 args.output.display(),
                 100.0 * mask.complex_fraction,
                 mask.complex_segments,
                 mask.segments.count,
-            );
-        }
+            )
+        };
+        let mut out = mask_image(mask, &params, &input_path.display().to_string(), scene);
+        out.set_text(COMMAND_ATTR, command_line());
+        out.into_file(&args.output, false)?;
+        println!("{summary}");
         Ok(ExitCode::SUCCESS)
     })
 }

@@ -84,7 +84,8 @@ struct Args {
 fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
-        init_threads(args.threads)?;
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { init_threads(args.threads) }?;
         check_switch(args.switch)?;
         if args.mask_spp == 0 || args.chains == 0 || args.bootstrap == 0 {
             return Err(Error::new(

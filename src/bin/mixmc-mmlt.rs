@@ -64,7 +64,8 @@ struct Args {
 fn main() -> ExitCode {
     main_with("mixmc-mmlt", || {
         let args = Args::parse();
-        args.render.init_threads()?;
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { args.render.init_threads() }?;
         if !(0.0..=1.0).contains(&args.large_step) {
             return Err(Error::new(format!(
                 "--large-step {} must be in [0, 1]",

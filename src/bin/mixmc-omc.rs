@@ -39,7 +39,8 @@ struct Args {
 fn main() -> ExitCode {
     main_with("mixmc-omc", || {
         let args = Args::parse();
-        args.render.init_threads()?;
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { args.render.init_threads() }?;
         let scene = Scene::load(&args.scene)?;
         let settings = OmcSettings {
             method: args.method,

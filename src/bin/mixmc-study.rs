@@ -189,7 +189,8 @@ fn write_outputs(res: &Results, dir: &Path, command: &str) -> Result<()> {
 fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
-        init_threads(args.threads)?;
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { init_threads(args.threads) }?;
         let plan = args.plan()?;
         std::fs::create_dir_all(&args.output)
             .map_err(|e| Error::in_file(&args.output, e.to_string()))?;

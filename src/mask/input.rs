@@ -5,6 +5,7 @@
 
 use crate::error::Result;
 use crate::layout::Source;
+use rayon::prelude::*;
 
 /// Everything the mask reads, per pixel, row-major.
 #[derive(Clone, Debug)]
@@ -20,62 +21,79 @@ pub struct MaskInput {
     pub indirect: Vec<[f32; 3]>,
 }
 
-/// Replace the non-finite values of one quantity's component by `fill`; a warning names the
-/// quantity by our channel name (`indirect.G`, `N.X`, `matid`) and says what was done.
-fn repair<'a>(
-    name: &str,
-    data: impl Iterator<Item = &'a mut f32>,
-    fill: f32,
-    meaning: &str,
-) -> Option<String> {
-    let mut bad = 0usize;
-    for v in data.filter(|v| !v.is_finite()) {
-        *v = fill;
-        bad += 1;
-    }
-    (bad > 0).then(|| format!("channel `{name}` has {bad} non-finite values; {meaning}"))
+/// Replace the non-finite values of each component of `data` by `fill`, in parallel; returns
+/// how many each component had.
+fn repair<const N: usize>(data: &mut [[f32; N]], fill: f32) -> [usize; N] {
+    data.par_chunks_mut(CHUNK)
+        .map(|chunk| {
+            let mut bad = [0usize; N];
+            for px in chunk {
+                for (v, b) in px.iter_mut().zip(&mut bad) {
+                    if !v.is_finite() {
+                        *v = fill;
+                        *b += 1;
+                    }
+                }
+            }
+            bad
+        })
+        .reduce(|| [0; N], |a, b| std::array::from_fn(|c| a[c] + b[c]))
 }
+
+/// One warning per component that had non-finite values, naming it by our channel name
+/// (`indirect.G`, `N.X`, `matid`) and saying what was done.
+fn warn<const N: usize>(names: [&str; N], bad: [usize; N], meaning: &str) -> Vec<String> {
+    names
+        .iter()
+        .zip(bad)
+        .filter(|&(_, bad)| bad > 0)
+        .map(|(name, bad)| format!("channel `{name}` has {bad} non-finite values; {meaning}"))
+        .collect()
+}
+
+/// Pixels per parallel part of the per-pixel passes.
+const CHUNK: usize = 1 << 16;
 
 impl MaskInput {
     /// Collect what the mask needs, with one warning per repaired quantity: non-finite light
     /// counts as no light (0), a non-finite normal or material id makes the pixel background
     /// (matid −1). Depth keeps non-finite values: they already mean background (DESIGN §3).
+    /// Every pass is parallel: on a 4K frame they took longer, one thread alone, than the
+    /// whole mask on two (BENCHMARKS.md, "Mask", twelfth pass).
     pub fn from_source(src: &Source) -> Result<(MaskInput, Vec<String>)> {
         let mut indirect = src.indirect()?;
         let depth = src.depth()?;
         let mut normal = src.normal()?;
         let mut matid = src.matid()?;
-        let mut warnings = Vec::new();
-        let no_light = "they count as no indirect light";
-        for (c, name) in ["indirect.R", "indirect.G", "indirect.B"]
-            .iter()
-            .enumerate()
-        {
-            warnings.extend(repair(
-                name,
-                indirect.iter_mut().map(|p| &mut p[c]),
-                0.0,
-                no_light,
-            ));
-        }
+        let mut warnings = warn(
+            ["indirect.R", "indirect.G", "indirect.B"],
+            repair(&mut indirect, 0.0),
+            "they count as no indirect light",
+        );
         let background = "those pixels count as background";
-        for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
-            warnings.extend(repair(
-                name,
-                normal.iter_mut().map(|p| &mut p[c]),
-                f32::NAN,
-                background,
-            ));
-        }
-        warnings.extend(repair("matid", matid.iter_mut(), -1.0, background));
-        for (id, n) in matid.iter_mut().zip(normal.iter_mut()) {
-            if n.iter().any(|c| c.is_nan()) {
-                *id = -1.0;
-                *n = [0.0; 3];
-            }
-        }
+        warnings.extend(warn(
+            ["N.X", "N.Y", "N.Z"],
+            repair(&mut normal, f32::NAN),
+            background,
+        ));
+        warnings.extend(warn(
+            ["matid"],
+            repair(matid.as_chunks_mut().0, -1.0),
+            background,
+        ));
+        matid
+            .par_iter_mut()
+            .zip(normal.par_iter_mut())
+            .with_min_len(CHUNK)
+            .for_each(|(id, n)| {
+                if n.iter().any(|c| c.is_nan()) {
+                    *id = -1.0;
+                    *n = [0.0; 3];
+                }
+            });
         let luminance = indirect
-            .iter()
+            .par_iter()
+            .with_min_len(CHUNK)
             .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
             .collect();
         Ok((

@@ -5,15 +5,18 @@ use super::pipeline::{Mask, MaskParams};
 use crate::exrio::ExrImage;
 
 /// `mask.exr` of DESIGN §3: `input` names the AOV file it was built from, `scene` its scene.
-pub fn mask_image(m: &Mask, p: &MaskParams, input: &str, scene: Option<String>) -> ExrImage {
+/// Takes the mask's buffers for the file's channels: copies of a 4K frame's would cost a pass
+/// over 130 MB of fresh memory.
+pub fn mask_image(m: Mask, p: &MaskParams, input: &str, scene: Option<String>) -> ExrImage {
     let mut out = ExrImage::new(m.width, m.height);
-    out.add("alpha", m.alpha.clone());
+    out.add("alpha", m.alpha);
+    // Collected in place: u32 and f32 have one size, so the labels' buffer is reused.
     out.add(
         "segment",
-        m.segments.labels.iter().map(|&l| l as f32).collect(),
+        m.segments.labels.into_iter().map(|l| l as f32).collect(),
     );
-    out.add("noise", m.noise.clone());
-    out.add("weight", m.weight.clone());
+    out.add("noise", m.noise);
+    out.add("weight", m.weight);
     out.set_text("mixmc.tool", "mixmc-mask");
     out.set_text("mixmc.version", env!("CARGO_PKG_VERSION"));
     out.set_text("mixmc.mask.input", input);

@@ -17,6 +17,7 @@
 //! edges are judged as they are seen; the blend itself mixes the linear HDR colours.
 
 use crate::math::{Rgb, luminance};
+use rayon::prelude::*;
 
 /// Sub-pixel aliasing removal amount (FXAA's `fxaaQualitySubpix` default).
 pub const SUBPIX: f32 = 0.75;
@@ -99,11 +100,17 @@ pub fn fxaa(rgb: &[[f32; 3]], width: usize, height: usize, apply: &[bool]) -> Ve
     assert_eq!(apply.len(), rgb.len(), "FXAA: selection size");
     let tex = Texture {
         rgb,
-        luma: rgb.iter().map(|c| luma(*c)).collect(),
+        luma: rgb
+            .par_iter()
+            .with_min_len(1 << 14)
+            .map(|c| luma(*c))
+            .collect(),
         width,
         height,
     };
     (0..rgb.len())
+        .into_par_iter()
+        .with_min_len(1 << 14)
         .map(|i| {
             if apply[i] {
                 fxaa_pixel(&tex, i % width, i / width)

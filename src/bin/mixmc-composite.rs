@@ -50,7 +50,7 @@ fn main() -> ExitCode {
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
-        let mut result = composite(
+        let result = composite(
             OmcInput {
                 path: &args.omc[0],
                 source: &omc,
@@ -71,12 +71,13 @@ fn main() -> ExitCode {
         for (file, msg) in &result.warnings {
             eprintln!("{TOOL}: {file}: {msg}");
         }
-        let img = &mut result.image;
+        let mut img = result.image;
         img.set_text(COMMAND_ATTR, command_line());
-        img.write(&args.output, false)?;
+        // The preview first, so that the EXR writer can take the image's buffers.
         if let Some(png) = &args.png {
-            write_beauty_png(png, img)?;
+            write_beauty_png(png, &img)?;
         }
+        img.into_file(&args.output, false)?;
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)
         } else if args.no_fxaa {

@@ -159,8 +159,12 @@ impl ExrImage {
             let px = h.layer_size.width().saturating_mul(h.layer_size.height());
             for c in &h.channels.list {
                 samples = samples.saturating_add(px);
-                // The exr crate's decoded copy plus ours as f32.
-                let size = c.sample_type.bytes_per_sample() as u64 + 4;
+                // 32-bit floats are kept as decoded; other types are converted, so the exr
+                // crate's decoded copy and ours as f32 coexist.
+                let size = match c.sample_type {
+                    SampleType::F32 => 4,
+                    other => other.bytes_per_sample() as u64 + 4,
+                };
                 bytes = bytes.saturating_add((px as u64).saturating_mul(size));
             }
         }

@@ -2,7 +2,7 @@
 //! eq. (2) with FXAA on the mask's borders, or D + I_mcmc above the MCMC-only switch (DESIGN §5).
 
 use clap::Parser;
-use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
+use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
 use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, Options, composite};
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
@@ -41,11 +41,16 @@ struct Args {
     /// have been rendered without a mask.
     #[arg(long, default_value_t = DEFAULT_SWITCH)]
     switch: f64,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
+        // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
+        unsafe { init_threads(args.threads) }?;
         mixmc::cli::check_switch(args.switch)?;
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;

@@ -154,6 +154,27 @@ fn equation2_holds_per_pixel_and_fxaa_stays_on_borders() {
 }
 
 #[test]
+fn one_thread_and_all_give_the_same_image() {
+    // Large enough that eq. (2), the borders and FXAA split into parallel parts.
+    let dir = temp_dir("threads");
+    let (w, h) = (256, 160);
+    let n = w * h;
+    let (d, i, m) = (
+        random_rgb(n, 5, 0.3),
+        random_rgb(n, 6, 0.5),
+        random_rgb(n, 7, 0.3),
+    );
+    let alpha: Vec<f32> = (0..n)
+        .map(|p| if noise(p, 8) < 0.3 { 1.0 } else { EPS })
+        .collect();
+    let inputs = write_inputs(&dir, (w, h), &d, &i, &alpha, &m, Some(&alpha));
+    let (one, _) = composite(&dir, &inputs, &["--threads", "1"]);
+    let (all, _) = composite(&dir, &inputs, &[]);
+    assert_eq!(one.text_attr("mixmc.fxaa").as_deref(), Some("true"));
+    assert_eq!(rgb(&one, ""), rgb(&all, ""));
+}
+
+#[test]
 fn uniform_epsilon_is_d_plus_nine_tenths_i_plus_mcmc() {
     let dir = temp_dir("eps");
     let (w, h) = (12, 10);

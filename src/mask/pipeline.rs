@@ -33,7 +33,7 @@
 
 use super::input::MaskInput;
 use super::median::MedianNetwork;
-use super::segment::{GBuffer, SegmentParams, Segments, segment};
+use super::segment::{SegmentParams, Segments, segment_in_normals};
 use super::select::nth_largest_many;
 use rayon::prelude::*;
 
@@ -284,8 +284,9 @@ fn spike_gate(
 }
 
 /// All steps. The input's buffers become the outputs' once their values are no longer needed
-/// (noise in depth's, weights in luminance's, α in the material ids'): fresh memory costs the
-/// kernel's serial zeroing of every page (BENCHMARKS.md, "Mask"), 5 ms per 4K buffer.
+/// (segment labels in the normals', noise in depth's, weights in luminance's, α in the material
+/// ids'): fresh memory costs the kernel's serial zeroing of every page (BENCHMARKS.md, "Mask"),
+/// 5 ms per 4K buffer.
 pub fn build(input: MaskInput, p: &MaskParams) -> Mask {
     let MaskInput {
         width,
@@ -296,20 +297,12 @@ pub fn build(input: MaskInput, p: &MaskParams) -> Mask {
         matid,
         ..
     } = input;
-    let g = GBuffer {
-        width,
-        height,
-        depth: &depth,
-        normal: &normal,
-        matid: &matid,
-    };
     let sp = SegmentParams {
         normal_tol: p.normal_tol,
         depth_tol: p.depth_tol,
         fov_y: p.fov_y,
     };
-    let segments = segment(&g, &sp);
-    drop(normal);
+    let segments = segment_in_normals(&depth, normal, &matid, (width, height), &sp);
     let mut noise = depth;
     self::noise(&luminance, width, height, p.window, &mut noise);
     // The gate's floor, from the luminance before its buffer takes the weights. Fixed chunks

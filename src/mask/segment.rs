@@ -24,8 +24,11 @@
 //!
 //! Segment ids are numbered in raster order of each segment's first pixel, so the labelling is
 //! deterministic (and the union-find below keeps the smallest pixel index as the root, which
-//! gives that order for free). Rows are split into strips labelled in parallel, each numbering
-//! its own sets; joining those sets across the strip seams then numbers the segments.
+//! gives that order for free). Rows are split into strips, in two parallel passes: each strip's
+//! join bits (a byte a pixel, from the neighbour rule), then its labels from those bits alone,
+//! each strip numbering its own sets; joining those sets across the strip seams then numbers the
+//! segments. Since the labels need no G-buffer, the mask writes them into the normals' buffer
+//! (`segment_in_normals`).
 
 use rayon::prelude::*;
 
@@ -229,17 +232,27 @@ fn number_sets(parent: &mut [u32]) -> u32 {
     count
 }
 
-/// One strip's labelling: `local` (its rows) gets each pixel's strip-local set number, sets
-/// numbered in raster order of their first pixel; returns the number of sets and the strip's
-/// first row's `JOIN_UP` bits, for the seam with the strip above.
-fn label_strip(rule: &Rule, y0: usize, local: &mut [u32]) -> (u32, Vec<u8>) {
+/// Every pixel's `JOIN_LEFT` and `JOIN_UP` bits, strips of `strip_rows` rows in parallel.
+fn join_bits(rule: &Rule, strip_rows: usize) -> Vec<u8> {
     let (w, h) = (rule.g.width, rule.g.height);
-    let y1 = y0 + local.len() / w;
+    let mut joins = vec![0u8; w * h];
+    if joins.is_empty() {
+        return joins;
+    }
+    joins
+        .par_chunks_mut(strip_rows * w)
+        .enumerate()
+        .for_each(|(s, out)| join_strip(rule, s * strip_rows, out));
+    joins
+}
+
+/// The join bits of the rows from `y0` on that `out` holds.
+fn join_strip(rule: &Rule, y0: usize, out: &mut [u8]) {
+    let (w, h) = (rule.g.width, rule.g.height);
+    let y1 = y0 + out.len() / w;
     let mut surf = [vec![0u8; w], vec![0u8; w]];
     let mut q = [vec![0f32; w], vec![0f32; w], vec![0f32; w]];
     let mut bits = [vec![0u8; w], vec![0u8; w]];
-    let mut joins = vec![0u8; w];
-    let mut seam = Vec::new();
     // The row above the strip, for its rule bits (the joins of the strip's first row read them).
     let first = y0.saturating_sub(1);
     if first > 0 {
@@ -262,23 +275,26 @@ fn label_strip(rule: &Rule, y0: usize, local: &mut [u32]) -> (u32, Vec<u8>) {
                 rule.inverse_row(y + 2, &mut q[2]);
             }
         }
-        if y < y0 {
-            continue;
+        if y >= y0 {
+            rule.join_row(y, &bits, &mut out[(y - y0) * w..(y - y0 + 1) * w]);
         }
-        rule.join_row(y, &bits, &mut joins);
-        if y == y0 {
-            seam = joins.iter().map(|j| j & JOIN_UP).collect();
-        }
+    }
+}
+
+/// One strip's labelling from its join bits: `local` gets each pixel's strip-local set number,
+/// sets numbered in raster order of their first pixel; returns the number of sets.
+fn label_strip(joins: &[u8], w: usize, local: &mut [u32]) -> u32 {
+    for (r, row) in joins.chunks(w).enumerate() {
         // A pixel joining a neighbour takes that neighbour's parent (an ancestor with a
         // smaller index, so the smallest index stays the root); only a pixel joining both
         // neighbours may have to merge two sets. The left neighbour's entry is carried in
         // `left` rather than read back from `local`, so that a row is no chain of stores and
         // loads; after a merge it is the merged root.
-        let row = (y - y0) * w;
+        let start = r * w;
         let mut left = 0;
-        for (x, &j) in joins.iter().enumerate() {
-            let i = row + x;
-            let up = y > y0 && j & JOIN_UP != 0;
+        for (x, &j) in row.iter().enumerate() {
+            let i = start + x;
+            let up = r > 0 && j & JOIN_UP != 0;
             left = match (j & JOIN_LEFT != 0, up) {
                 (false, false) => i as u32,
                 (true, false) => left,
@@ -295,45 +311,83 @@ fn label_strip(rule: &Rule, y0: usize, local: &mut [u32]) -> (u32, Vec<u8>) {
             local[i] = left;
         }
     }
-    (number_sets(local), seam)
+    number_sets(local)
 }
 
 /// Label the segments of a G-buffer.
 pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
-    let (w, h) = (g.width, g.height);
-    let n = w * h;
+    let joins = join_bits(&Rule::new(g, p), strip_rows(g.height));
+    label(&joins, g.width, vec![0u32; joins.len()])
+}
+
+/// [`segment`] for a caller done with the G-buffer's normals: the labels take their buffer, so
+/// the step touches no fresh memory but the join bits' byte a pixel (the kernel zeroes fresh
+/// pages one thread at a time: BENCHMARKS.md, "Mask").
+pub fn segment_in_normals(
+    depth: &[f32],
+    normal: Vec<[f32; 3]>,
+    matid: &[f32],
+    (width, height): (usize, usize),
+    p: &SegmentParams,
+) -> Segments {
+    let g = GBuffer {
+        width,
+        height,
+        depth,
+        normal: &normal,
+        matid,
+    };
+    let joins = join_bits(&Rule::new(&g, p), strip_rows(height));
+    let mut labels = words(normal);
+    labels.truncate(joins.len());
+    label(&joins, width, labels)
+}
+
+/// A buffer of normals as the 32-bit words it holds, three a normal.
+fn words(normal: Vec<[f32; 3]>) -> Vec<u32> {
+    let mut v = std::mem::ManuallyDrop::new(normal);
+    let (ptr, len, cap) = (v.as_mut_ptr(), v.len(), v.capacity());
+    // SAFETY: `[f32; 3]` is three `f32`s with `f32`'s alignment, which is `u32`'s, and every bit
+    // pattern is a `u32`; the allocation's layout (12·cap bytes, align 4) is that of 3·cap `u32`s,
+    // so the new vector frees it as it was allocated.
+    unsafe { Vec::from_raw_parts(ptr.cast::<u32>(), 3 * len, 3 * cap) }
+}
+
+/// Rows per strip: a few strips per thread, so that a thread slowed by other work is relieved.
+fn strip_rows(height: usize) -> usize {
+    height.div_ceil(rayon::current_num_threads() * 4).max(1)
+}
+
+/// Label from the join bits into `labels` (any contents, one entry a pixel).
+fn label(joins: &[u8], w: usize, mut labels: Vec<u32>) -> Segments {
+    let n = joins.len();
     if n == 0 {
         return Segments {
             labels: Vec::new(),
             count: 0,
         };
     }
-    assert!(
-        u32::try_from(n).is_ok(),
-        "{w}×{h} pixels: too many to label"
-    );
-    let rule = Rule::new(g, p);
+    assert!(u32::try_from(n).is_ok(), "{n} pixels: too many to label");
     // Strips of whole rows, each labelled on its own with strip-local set numbers.
-    let strip_rows = h.div_ceil(rayon::current_num_threads() * 4).max(1);
-    let mut labels = vec![0u32; n];
-    let strips: Vec<(u32, Vec<u8>)> = labels
-        .par_chunks_mut(strip_rows * w)
-        .enumerate()
-        .map(|(s, local)| label_strip(&rule, s * strip_rows, local))
+    let chunk = strip_rows(n / w) * w;
+    let counts: Vec<u32> = labels
+        .par_chunks_mut(chunk)
+        .zip(joins.par_chunks(chunk))
+        .map(|(local, joins)| label_strip(joins, w, local))
         .collect();
     // The strips' sets, numbered strip after strip, are in raster order of their first pixel;
     // joining them across the seams (the smaller number stays the root) and numbering the
     // roots in order numbers the segments by their first pixel.
-    let mut offset = Vec::with_capacity(strips.len());
+    let mut offset = Vec::with_capacity(counts.len());
     let mut sets = 0u32;
-    for (count, _) in &strips {
+    for count in &counts {
         offset.push(sets);
         sets += count;
     }
     let mut parent: Vec<u32> = (0..sets).collect();
-    for (s, (_, seam)) in strips.iter().enumerate().skip(1) {
-        let below = s * strip_rows * w;
-        for (x, &j) in seam.iter().enumerate() {
+    for s in 1..counts.len() {
+        let below = s * chunk;
+        for (x, &j) in joins[below..below + w].iter().enumerate() {
             if j & JOIN_UP != 0 {
                 let a = offset[s] + labels[below + x];
                 let b = offset[s - 1] + labels[below - w + x];
@@ -343,7 +397,7 @@ pub fn segment(g: &GBuffer, p: &SegmentParams) -> Segments {
     }
     let count = number_sets(&mut parent);
     labels
-        .par_chunks_mut(strip_rows * w)
+        .par_chunks_mut(chunk)
         .zip(&offset)
         .for_each(|(local, &offset)| {
             local
@@ -647,6 +701,8 @@ mod tests {
                 let s = segment(&g, &p);
                 assert_eq!(s.labels, want, "{w}×{h}");
                 assert_eq!(s.count, want.iter().max().map_or(0, |&m| m as usize + 1));
+                let reused = segment_in_normals(&depth, normal.clone(), &matid, (w, h), &p);
+                assert_eq!((reused.labels, reused.count), (s.labels, s.count));
             }
         }
     }

@@ -330,6 +330,7 @@ pub fn segment_in_normals(
     (width, height): (usize, usize),
     p: &SegmentParams,
 ) -> Segments {
+    assert_eq!(normal.len(), width * height, "one normal a pixel");
     let g = GBuffer {
         width,
         height,

@@ -5,6 +5,7 @@
 //! OMC part keeps the complementary share `1 − α`. Where the mask changes, the two estimates meet
 //! along a seam of different noise, which FXAA softens; nothing else is filtered.
 
+use crate::PIXEL_CHUNK;
 use crate::error::{Error, Result};
 use crate::exrio::{ExrImage, check_finite_rgb};
 use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
@@ -67,9 +68,6 @@ pub fn mask_borders(alpha: &[f32], width: usize, height: usize) -> Vec<bool> {
         })
         .collect()
 }
-
-/// Pixels per parallel part of the per-pixel passes.
-const PIXEL_CHUNK: usize = 1 << 14;
 
 /// Compositor settings.
 #[derive(Clone, Copy, Debug)]

@@ -101,7 +101,7 @@ impl ExrImage {
         // In parallel: interleaving a 4K frame is a pass over 130 MB of fresh memory.
         Ok((0..r.len())
             .into_par_iter()
-            .with_min_len(1 << 16)
+            .with_min_len(crate::PIXEL_CHUNK)
             .map(|i| [r[i], g[i], b[i]])
             .collect())
     }

@@ -16,6 +16,7 @@
 //! Luma is taken in the display space of the paper's metrics, `clamp(Y, 0, 1)^(1/2.2)`, so that
 //! edges are judged as they are seen; the blend itself mixes the linear HDR colours.
 
+use crate::PIXEL_CHUNK;
 use crate::math::{Rgb, luminance};
 use rayon::prelude::*;
 
@@ -102,7 +103,7 @@ pub fn fxaa(rgb: &[[f32; 3]], width: usize, height: usize, apply: &[bool]) -> Ve
         rgb,
         luma: rgb
             .par_iter()
-            .with_min_len(1 << 14)
+            .with_min_len(PIXEL_CHUNK)
             .map(|c| luma(*c))
             .collect(),
         width,
@@ -110,7 +111,7 @@ pub fn fxaa(rgb: &[[f32; 3]], width: usize, height: usize, apply: &[bool]) -> Ve
     };
     (0..rgb.len())
         .into_par_iter()
-        .with_min_len(1 << 14)
+        .with_min_len(PIXEL_CHUNK)
         .map(|i| {
             if apply[i] {
                 fxaa_pixel(&tex, i % width, i / width)

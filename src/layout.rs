@@ -367,7 +367,7 @@ impl Source {
         };
         Ok(raw
             .par_iter()
-            .with_min_len(1 << 16)
+            .with_min_len(crate::PIXEL_CHUNK)
             .map(|&z| if miss(z) { f32::INFINITY } else { z })
             .collect())
     }

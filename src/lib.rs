@@ -34,6 +34,12 @@ pub mod study;
 
 pub use error::{Error, Result};
 
+/// Pixels per parallel part of the passes over whole images: enough that rayon's bookkeeping is
+/// lost in the work, few enough that a 1080p frame still gives two threads ~30 parts. Fixed, not
+/// derived from the thread count, so that sums over parts (the mask's gate floor) are the same
+/// for any number of threads.
+pub const PIXEL_CHUNK: usize = 1 << 16;
+
 /// Every tool, test and benchmark allocates through it (see `alloc`).
 #[global_allocator]
 static GLOBAL: alloc::HugePageAlloc = alloc::HugePageAlloc;

@@ -3,6 +3,7 @@
 //! repaired with a warning rather than refused: renderers write NaN or ∞ where a sample failed,
 //! and refusing a whole image for a few pixels would help no one.
 
+use crate::PIXEL_CHUNK;
 use crate::error::Result;
 use crate::layout::Source;
 use rayon::prelude::*;
@@ -24,7 +25,7 @@ pub struct MaskInput {
 /// Replace the non-finite values of each component of `data` by `fill`, in parallel; returns
 /// how many each component had.
 fn repair<const N: usize>(data: &mut [[f32; N]], fill: f32) -> [usize; N] {
-    data.par_chunks_mut(CHUNK)
+    data.par_chunks_mut(PIXEL_CHUNK)
         .map(|chunk| {
             let mut bad = [0usize; N];
             for px in chunk {
@@ -50,9 +51,6 @@ fn warn<const N: usize>(names: [&str; N], bad: [usize; N], meaning: &str) -> Vec
         .map(|(name, bad)| format!("channel `{name}` has {bad} non-finite values; {meaning}"))
         .collect()
 }
-
-/// Pixels per parallel part of the per-pixel passes.
-const CHUNK: usize = 1 << 16;
 
 impl MaskInput {
     /// Collect what the mask needs, with one warning per repaired quantity: non-finite light
@@ -84,7 +82,7 @@ impl MaskInput {
         matid
             .par_iter_mut()
             .zip(normal.par_iter_mut())
-            .with_min_len(CHUNK)
+            .with_min_len(PIXEL_CHUNK)
             .for_each(|(id, n)| {
                 if n.iter().any(|c| c.is_nan()) {
                     *id = -1.0;
@@ -93,7 +91,7 @@ impl MaskInput {
             });
         let luminance = indirect
             .par_iter()
-            .with_min_len(CHUNK)
+            .with_min_len(PIXEL_CHUNK)
             .map(|c| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
             .collect();
         Ok((

@@ -35,13 +35,12 @@ use super::input::MaskInput;
 use super::median::MedianNetwork;
 use super::segment::{SegmentParams, Segments, segment_in_normals};
 use super::select::nth_largest_many;
+use crate::PIXEL_CHUNK;
 use rayon::prelude::*;
 
 /// Pixels per parallel part of the fill step: few parts, since each keeps a fill value per
 /// segment.
 const FILL_CHUNK: usize = 1 << 20;
-/// Pixels per parallel part of the per-pixel passes.
-const PIXEL_CHUNK: usize = 1 << 16;
 
 /// A run of pixels in raster order with one segment label: (label, length).
 type Run = (u32, u32);

@@ -88,29 +88,35 @@ impl Bsdf {
     }
 
     /// `f(wo, wi)` (no cosine) and the solid-angle densities of sampling `wi` given `wo`
-    /// (`pdf`) and `wo` given `wi` (`pdf_rev`), from one local frame: a bidirectional connection
-    /// needs all three at each of its ends, next-event estimation the first two. Zero for delta
-    /// lobes.
+    /// (`pdf`) and `wo` given `wi` (`pdf_rev`): a bidirectional connection needs all three at
+    /// each of its ends, next-event estimation the first two. Zero for delta lobes. Every lobe
+    /// here depends only on cosines with the normal and the half vector, which are the same in
+    /// any frame, so no local frame is built: a connection evaluates two of these, and the frame
+    /// (a division and four dot products) was most of a diffuse evaluation.
     pub fn evaluate(&self, ng: Vec3, wo: Vec3, wi: Vec3) -> Evaluated {
-        let frame = Frame::new(ng);
-        let (o, i) = opaque_local(&frame, wo, wi);
-        if o.z <= 0.0 || i.z <= 0.0 {
+        // Two-sided: the side wo is on counts as the outside.
+        let side = if wo.dot(ng) < 0.0 { -1.0 } else { 1.0 };
+        let (cos_o, cos_i) = (side * wo.dot(ng), side * wi.dot(ng));
+        if cos_o <= 0.0 || cos_i <= 0.0 {
             return Evaluated::ZERO;
         }
         match *self {
             Bsdf::Diffuse { albedo } => Evaluated {
                 f: albedo * INV_PI,
-                pdf: i.z * INV_PI,
-                pdf_rev: o.z * INV_PI,
+                pdf: cos_i * INV_PI,
+                pdf_rev: cos_o * INV_PI,
             },
             Bsdf::Glossy { reflectance, alpha } => {
-                let h = (o + i).normalize();
-                let d = ggx_d(h, alpha);
-                let (g1o, g1i) = (smith_g1(o, h, alpha), smith_g1(i, h, alpha));
+                let h = (wo + wi).normalize();
+                let d = ggx_d(side * h.dot(ng), alpha);
+                let (g1o, g1i) = (
+                    smith_g1(cos_o, wo.dot(h), alpha),
+                    smith_g1(cos_i, wi.dot(h), alpha),
+                );
                 Evaluated {
-                    f: reflectance * (d * g1o * g1i / (4.0 * o.z * i.z)),
-                    pdf: g1o * d / (4.0 * o.z),
-                    pdf_rev: g1i * d / (4.0 * i.z),
+                    f: reflectance * (d * g1o * g1i / (4.0 * cos_o * cos_i)),
+                    pdf: g1o * d / (4.0 * cos_o),
+                    pdf_rev: g1i * d / (4.0 * cos_i),
                 }
             }
             Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Evaluated::ZERO,
@@ -160,8 +166,11 @@ impl Bsdf {
                 if i.z <= 0.0 {
                     return None;
                 }
-                let d = ggx_d(h, alpha);
-                let (g1o, g1i) = (smith_g1(o, h, alpha), smith_g1(i, h, alpha));
+                let d = ggx_d(h.z, alpha);
+                let (g1o, g1i) = (
+                    smith_g1(o.z, o.dot(h), alpha),
+                    smith_g1(i.z, i.dot(h), alpha),
+                );
                 let pdf = g1o * d / (4.0 * o.z);
                 let f = reflectance * (d * g1o * g1i / (4.0 * o.z * i.z));
                 if pdf <= 0.0 || !pdf.is_finite() {
@@ -213,17 +222,6 @@ impl Bsdf {
     }
 }
 
-/// Both directions in the local frame, flipped together so that `wo` is on +z (two-sided).
-fn opaque_local(frame: &Frame, wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    let o = frame.to_local(wo);
-    let i = frame.to_local(wi);
-    if o.z < 0.0 {
-        (Vec3::new(o.x, o.y, -o.z), Vec3::new(i.x, i.y, -i.z))
-    } else {
-        (o, i)
-    }
-}
-
 /// Unpolarised Fresnel reflectance of a smooth dielectric for incident cosine `cos_i` ≥ 0 and
 /// relative index `eta` (transmitted over incident). Returns (F, cos θt); F = 1 on total
 /// internal reflection.
@@ -238,22 +236,23 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     (0.5 * (rs * rs + rp * rp), cos_t)
 }
 
-/// GGX normal distribution D(h) for a half vector in the local frame.
-fn ggx_d(h: Vec3, alpha: f32) -> f32 {
-    if h.z <= 0.0 {
+/// GGX normal distribution D(h) of a half vector whose cosine with the normal is `cos_h`.
+fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
+    if cos_h <= 0.0 {
         return 0.0;
     }
     let a2 = alpha * alpha;
-    let t = h.z * h.z * (a2 - 1.0) + 1.0;
+    let t = cos_h * cos_h * (a2 - 1.0) + 1.0;
     a2 / (PI * t * t)
 }
 
-/// Smith's masking for GGX; separable G = G1(wo)·G1(wi) as in Mitsuba 3.
-fn smith_g1(v: Vec3, h: Vec3, alpha: f32) -> f32 {
-    if v.dot(h) * v.z <= 0.0 {
+/// Smith's masking for GGX of a direction v, from its cosines with the normal (`cos_v`) and the
+/// half vector (`v_dot_h`); separable G = G1(wo)·G1(wi) as in Mitsuba 3.
+fn smith_g1(cos_v: f32, v_dot_h: f32, alpha: f32) -> f32 {
+    if v_dot_h * cos_v <= 0.0 {
         return 0.0;
     }
-    let tan2 = (1.0 - v.z * v.z).max(0.0) / (v.z * v.z);
+    let tan2 = (1.0 - cos_v * cos_v).max(0.0) / (cos_v * cos_v);
     2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
 }
 

@@ -174,6 +174,7 @@ impl Block {
         if !ok.any() {
             return None;
         }
+        // NaN lanes fail `ok`, so the minimum is over numbers.
         let t = F8::select(ok, t, F8::splat(f32::INFINITY));
         let nearest = t.min_lane();
         let lane = t.eq(F8::splat(nearest)).bitmask().trailing_zeros() as usize;

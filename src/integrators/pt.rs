@@ -74,6 +74,10 @@ pub fn radiance(
         let bsdf = &scene.materials[hit.material as usize].bsdf;
         let wo = -d;
         let (u_sel, u_light) = (rng.next_1d(), rng.next_2d());
+        let (u, uc) = (rng.next_2d(), rng.next_1d());
+        // The continuation first: the next ray's work is then older than the shadow ray's
+        // branches, so their mispredictions do not discard it.
+        let sampled = bsdf.sample(hit.n, wo, u, uc, Mode::Radiance);
         if !bsdf.is_delta() && !scene.lights.is_empty() {
             let ls = scene.sample_light(u_sel, u_light);
             let to = ls.p - hit.p;
@@ -92,8 +96,7 @@ pub fn radiance(
                 }
             }
         }
-        let (u, uc) = (rng.next_2d(), rng.next_1d());
-        let Some(s) = bsdf.sample(hit.n, wo, u, uc, Mode::Radiance) else {
+        let Some(s) = sampled else {
             break;
         };
         beta *= s.weight(hit.n);

@@ -95,8 +95,9 @@ impl Bsdf {
     /// (a division and four dot products) was most of a diffuse evaluation.
     pub fn evaluate(&self, ng: Vec3, wo: Vec3, wi: Vec3) -> Evaluated {
         // Two-sided: the side wo is on counts as the outside.
-        let side = if wo.dot(ng) < 0.0 { -1.0 } else { 1.0 };
-        let (cos_o, cos_i) = (side * wo.dot(ng), side * wi.dot(ng));
+        let wo_n = wo.dot(ng);
+        let side = if wo_n < 0.0 { -1.0 } else { 1.0 };
+        let (cos_o, cos_i) = (side * wo_n, side * wi.dot(ng));
         if cos_o <= 0.0 || cos_i <= 0.0 {
             return Evaluated::ZERO;
         }
@@ -364,6 +365,52 @@ mod tests {
             );
             assert!(m <= 1.02 && m > 0.7, "alpha {alpha}: pdf mass {m}");
         }
+    }
+
+    /// The other tests evaluate around +z only. `evaluate` works in world space, so a lobe must
+    /// give the same values around any normal, and from either side of it (two-sided).
+    #[test]
+    fn evaluation_is_the_same_around_any_normal_and_from_either_side() {
+        let lobes = [
+            Bsdf::Diffuse {
+                albedo: Rgb::splat(0.5),
+            },
+            Bsdf::Glossy {
+                reflectance: Rgb::new(0.9, 0.6, 0.3),
+                alpha: 0.3,
+            },
+        ];
+        let mut rng = Rng::new(4, 5, 6);
+        let mut compared = 0;
+        for b in &lobes {
+            for _ in 0..2000 {
+                let uniform = |rng: &mut Rng| {
+                    let z = 1.0 - 2.0 * rng.next_1d();
+                    let (r, phi) = ((1.0 - z * z).max(0.0).sqrt(), 2.0 * PI * rng.next_1d());
+                    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+                };
+                let (wo, wi, n) = (uniform(&mut rng), uniform(&mut rng), uniform(&mut rng));
+                // Directions this close to the surface can change side by rounding.
+                if wo.z.abs() < 1e-2 || wi.z.abs() < 1e-2 {
+                    continue;
+                }
+                let want = b.evaluate(Vec3::Z, wo, wi);
+                let frame = Frame::new(n);
+                let (wo_n, wi_n) = (frame.to_world(wo), frame.to_world(wi));
+                for ng in [n, -n] {
+                    let got = b.evaluate(ng, wo_n, wi_n);
+                    let close = |a: f32, b: f32| (a - b).abs() <= 1e-4 * a.abs().max(b.abs());
+                    assert!(
+                        (0..3).all(|c| close(got.f[c], want.f[c]))
+                            && close(got.pdf, want.pdf)
+                            && close(got.pdf_rev, want.pdf_rev),
+                        "{b:?} n {ng}: {got:?} against {want:?}"
+                    );
+                }
+                compared += (want.pdf > 0.0) as usize;
+            }
+        }
+        assert!(compared > 1500, "only {compared} non-zero evaluations");
     }
 
     #[test]

@@ -121,10 +121,8 @@ impl Vertex {
 pub struct Edge {
     /// Unit direction from `a` to `b`.
     pub w: Vec3,
-    pub dist2: f32,
-    /// |cos| between `w` and each end's normal (1 at the camera, which is not on a surface).
+    /// |cos| between `w` and `a`'s normal (1 at the camera, which is not on a surface).
     pub cos_a: f32,
-    pub cos_b: f32,
     /// Turns a solid-angle density at `a` towards `b` into an area density at `b`.
     ///
     /// Into a delta vertex the density is kept per projected solid angle at the vertex it leaves
@@ -166,9 +164,7 @@ impl Edge {
         };
         Edge {
             w,
-            dist2,
             cos_a,
-            cos_b,
             to_b: into(b, cos_a, cos_b),
             to_a: into(a, cos_b, cos_a),
         }

@@ -34,8 +34,14 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
     let tmp = TempDir::new("mix-keep");
     let keep = tmp.join("keep");
     let out = tmp.join("final.exr");
-    // Keep the image a mix (not MCMC only) whatever the snapshot's noise.
-    mix_caustic("3", &out, &keep, &["--switch", "1"]);
+    // Keep the image a mix (not MCMC only, nor OMC only) whatever the snapshot's noise: the
+    // paper's fixed pairing and split.
+    mix_caustic(
+        "3",
+        &out,
+        &keep,
+        &["--switch", "1", "--omc", "ibpt", "--split", "half"],
+    );
     let fin = read(&out);
     let snapshot = read(&keep.join("omc-snapshot.exr"));
     let omc = read(&keep.join("omc.exr"));
@@ -104,13 +110,44 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
     }
 }
 
+/// The channels `R,G,B` of an image.
+fn rgb(img: &ExrImage) -> Vec<Vec<f32>> {
+    ["R", "G", "B"]
+        .iter()
+        .map(|c| img.require(c).unwrap().to_vec())
+        .collect()
+}
+
+/// How many of `a`'s values differ from `b`'s.
+fn differ(a: &[Vec<f32>], b: &[Vec<f32>]) -> usize {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| x.iter().zip(y).filter(|(p, q)| p != q).count())
+        .sum()
+}
+
 #[test]
-fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
+fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmasked_mmlt() {
     let tmp = TempDir::new("mix-switch");
-    let keep = tmp.join("keep");
-    let out = tmp.join("final.exr");
     // A switch of 0.001 fires on any mask that marks a single segment of the glass scene.
     let extra = ["--paper-mask", "--switch", "0.001", "--no-fxaa"];
+    // The default (measured) job: MMLT renders every light path, and the image is its own.
+    let (keep, out) = (tmp.join("keep"), tmp.join("final.exr"));
+    mix_caustic("2", &out, &keep, &extra);
+    let fin = read(&out);
+    assert_eq!(fin.text_attr("mixmc.switched").as_deref(), Some("true"));
+    assert_eq!(
+        fin.text_attr("mixmc.decision").as_deref(),
+        Some("mcmc-only")
+    );
+    let mcmc = read(&keep.join("mcmc.exr"));
+    assert_eq!(mcmc.float_attr("mixmc.min_depth"), Some(0.0));
+    assert_eq!(differ(&rgb(&fin), &rgb(&mcmc)), 0);
+
+    // A fixed split keeps the paper's form: D_omc + I_mcmc, MMLT on the indirect light.
+    let (keep, out) = (tmp.join("keep-half"), tmp.join("final-half.exr"));
+    let mut extra = extra.to_vec();
+    extra.extend(["--omc", "ibpt", "--split", "half"]);
     mix_caustic("2", &out, &keep, &extra);
     let fin = read(&out);
     assert_eq!(fin.text_attr("mixmc.switched").as_deref(), Some("true"));
@@ -118,20 +155,82 @@ fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
     assert!(mask.require("alpha").unwrap().iter().all(|&a| a == 1.0));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
-    for (c, d) in ["R", "G", "B"]
+    assert_eq!(mcmc.float_attr("mixmc.min_depth"), Some(2.0));
+    let expect: Vec<Vec<f32>> = ["direct.R", "direct.G", "direct.B"]
         .iter()
-        .zip(["direct.R", "direct.G", "direct.B"])
-    {
-        let expect: Vec<f32> = omc
-            .require(d)
-            .unwrap()
-            .iter()
-            .zip(mcmc.require(c).unwrap())
-            .map(|(a, b)| a + b)
-            .collect();
-        let got = fin.require(c).unwrap();
-        let differ = got.iter().zip(&expect).filter(|(x, y)| x != y).count();
-        assert_eq!(differ, 0, "{differ} pixels of {c} are not D + I_mcmc");
+        .zip(rgb(&mcmc))
+        .map(|(d, m)| {
+            let d = omc.require(d).unwrap();
+            d.iter().zip(&m).map(|(a, b)| a + b).collect()
+        })
+        .collect();
+    assert_eq!(differ(&rgb(&fin), &expect), 0, "not D + I_mcmc");
+}
+
+#[test]
+fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give() {
+    let tmp = TempDir::new("mix-measured");
+    // A scene with no hard light paths: the mask is empty, and OMC alone renders it.
+    let (keep, out) = (tmp.join("clean"), tmp.join("clean.exr"));
+    let scene = fixture("scenes/clean-tiny.json");
+    let mut args = vec![scene.as_str(), "--time", "2", "-o", p(&out)];
+    args.extend(["--keep", p(&keep), "-q"]);
+    args.extend(FAST);
+    run_ok("mixmc-mix", &args);
+    let fin = read(&out);
+    assert_eq!(fin.text_attr("mixmc.decision").as_deref(), Some("omc-only"));
+    assert_eq!(fin.float_attr("mixmc.complex_fraction"), Some(0.0));
+    // The partner was measured: every candidate has a rate, and the winner's is the smallest.
+    let rates: Vec<(String, f64)> = fin
+        .text_attr("mixmc.omc_rates")
+        .unwrap()
+        .split(' ')
+        .map(|kv| {
+            let (k, v) = kv.split_once(':').unwrap();
+            (k.to_string(), v.parse().unwrap())
+        })
+        .collect();
+    assert_eq!(rates.len(), 3, "{rates:?}");
+    let best = rates.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert_eq!(
+        fin.text_attr("mixmc.method").as_deref(),
+        Some(best.0.as_str())
+    );
+    let omc = read(&keep.join("omc.exr"));
+    assert_eq!(differ(&rgb(&fin), &rgb(&omc)), 0, "not OMC's beauty");
+    assert!(!keep.join("mcmc.exr").exists());
+
+    // The caustic: whatever the job chose, its image is what that choice makes of its files.
+    let (keep, out) = (tmp.join("caustic"), tmp.join("caustic.exr"));
+    mix_caustic("3", &out, &keep, &["--switch", "1"]);
+    let fin = read(&out);
+    let omc = read(&keep.join("omc.exr"));
+    match fin.text_attr("mixmc.decision").as_deref() {
+        Some("omc-only") => assert_eq!(differ(&rgb(&fin), &rgb(&omc)), 0),
+        Some("mix") => {
+            let fin2 = tmp.join("recomposed.exr");
+            let (o, m, c) = (
+                keep.join("omc.exr"),
+                keep.join("mask.exr"),
+                keep.join("mcmc.exr"),
+            );
+            let mut args = vec!["--omc", p(&o), "--mask", p(&m), "--mcmc", p(&c)];
+            args.extend(["-o", p(&fin2), "--switch", "1"]);
+            run_ok("mixmc-composite", &args);
+            assert_eq!(differ(&rgb(&fin), &rgb(&read(&fin2))), 0);
+        }
+        other => panic!("below the switch the job chose {other:?}"),
+    }
+    // Where the mask marked pixels, MMLT's pilot ran and the job wrote what it weighed.
+    if fin.float_attr("mixmc.complex_fraction").unwrap() > 0.0 {
+        for k in [
+            "mixmc.rate.mcmc",
+            "mixmc.predicted.omc_alone",
+            "mixmc.predicted.mix",
+        ] {
+            let v = fin.float_attr(k).unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
+        }
     }
 }
 

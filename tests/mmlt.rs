@@ -428,3 +428,67 @@ fn time_budget_and_sigint_give_scaled_images() {
         mean(&img)
     );
 }
+
+/// The main job stops MMLT after a pilot and continues it: that must be the same render as one
+/// run, and its two halves must be independent estimates that together make the whole.
+#[test]
+fn a_continued_run_is_one_run_and_its_halves_make_the_whole() {
+    use mixmc::mmlt::{MmltRun, MmltSettings};
+    use mixmc::render::Budget;
+    let scene = mixmc::scene::Scene::load(Path::new(&fixture(CAUSTIC))).unwrap();
+    let s = MmltSettings {
+        min_depth: 2,
+        max_depth: scene.max_depth,
+        seed: 3,
+        budget: Budget::Passes(8),
+        chains: 64,
+        bootstrap: 4000,
+        b_spp: 2,
+        large_step: mixmc::mmlt::DEFAULT_LARGE_STEP,
+        sigma: mixmc::mmlt::DEFAULT_SIGMA,
+        kelemen_mis: false,
+        quiet: true,
+    };
+    let once = mixmc::mmlt::render(&scene, None, &s);
+    let mut run = MmltRun::start(&scene, None, &s, 1);
+    run.run(Budget::Passes(3));
+    assert_eq!(run.result().mutations_per_pixel, 3);
+    run.run(Budget::Passes(8));
+    let twice = run.result();
+    assert_eq!(twice.mutations_per_pixel, 8);
+    assert!(
+        once.rgb == twice.rgb,
+        "a continued run differs from one run"
+    );
+
+    let mut halved = MmltRun::start(&scene, None, &s, 2);
+    halved.run(Budget::Passes(8));
+    let whole = halved.result();
+    let [a, b] = halved.halves();
+    let n = whole.rgb.len() as f64;
+    let mean = |img: &[[f32; 3]]| img.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    // Each half is an estimate of the same image with half the chains: equal means within
+    // noise, and the whole lies between them (it is their mutation-weighted mean per depth).
+    let (ma, mb, mw) = (mean(&a), mean(&b), mean(&whole.rgb));
+    assert!((ma / mb - 1.0).abs() < 0.1, "halves' means {ma} and {mb}");
+    assert!(
+        mw >= ma.min(mb) * 0.999 && mw <= ma.max(mb) * 1.001,
+        "{mw} not in [{ma}, {mb}]"
+    );
+    // Independent: the halves differ pixel by pixel, by far more than rounding.
+    let differ = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| (x[1] - y[1]).abs() > 1e-3)
+        .count();
+    assert!(
+        differ as f64 > 0.2 * n,
+        "only {differ} of {n} pixels differ"
+    );
+    // And the image of a halved run is that of an unhalved one in law: same mean within noise.
+    assert!(
+        (mw / mean(&once.rgb) - 1.0).abs() < 0.05,
+        "{mw} vs {}",
+        mean(&once.rgb)
+    );
+}

@@ -8,9 +8,8 @@ use mixmc::cli::{
 };
 use mixmc::error::Error;
 use mixmc::film::write_beauty_png;
-use mixmc::integrators::Method;
 use mixmc::mask::MaskParams;
-use mixmc::mix::{KEEP_NAMES, MixSettings, Split, mix};
+use mixmc::mix::{KEEP_NAMES, MixSettings, Partner, Split, mix};
 use mixmc::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -36,11 +35,13 @@ struct Args {
     /// Wall-clock budget of the whole job, in seconds.
     #[arg(long, default_value_t = 60.0)]
     time: f64,
-    /// The OMC method (the paper: ibpt for the Cornell scenes, lt for room and bathroom).
-    #[arg(long, value_enum, default_value_t = Method::Ibpt)]
-    omc: Method,
-    /// How the budget is split between OMC and MMLT.
-    #[arg(long, value_enum, default_value_t = Split::Half)]
+    /// The OMC method: `auto` pilots PT, IBPT and BPT and keeps the one with the smallest
+    /// measured error rate (the paper: ibpt for the Cornell scenes, lt for room and bathroom).
+    #[arg(long, value_enum, default_value_t = Partner::Auto)]
+    omc: Partner,
+    /// How the budget is split between OMC and MMLT: `measured` decides from the error rates
+    /// of OMC and of an MMLT pilot, down to OMC alone or (above --switch) MCMC alone.
+    #[arg(long, value_enum, default_value_t = Split::Measured)]
     split: Split,
     /// OMC passes in the snapshot the mask is built from (fewer if half the budget runs out).
     #[arg(long, default_value_t = 64)]
@@ -141,16 +142,17 @@ fn main() -> ExitCode {
         if let Some(png) = &args.png {
             write_beauty_png(png, &m.image)?;
         }
-        let how = if m.switched {
-            "MCMC only".to_string()
-        } else {
-            format!("{:.2}% complex pixels", 100.0 * m.complex_fraction)
-        };
+        let how = format!(
+            "{:.2}% complex pixels{}, {}",
+            100.0 * m.complex_fraction,
+            if m.switched { " (switch)" } else { "" },
+            m.choice.name()
+        );
         println!(
             "{}: {how}; {} {} spp in {:.1} s, mask {:.2} s, MMLT {} mutations/px in {:.1} s \
              (share {:.2}); {:.1} s in all{}",
             args.output.display(),
-            settings.omc.name(),
+            m.method.name(),
             m.omc.float_attr("mixmc.spp").unwrap_or(0.0),
             m.phases.omc,
             m.phases.mask,

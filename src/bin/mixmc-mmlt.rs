@@ -128,7 +128,7 @@ fn main() -> ExitCode {
             kelemen_mis: args.kelemen_mis,
             quiet: args.render.quiet,
         };
-        check_memory(w, h, &settings).map_err(|e| e.with_file(&args.scene))?;
+        check_memory(w, h, &settings, 1).map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();
         let r = render(&scene, mask.as_ref(), &settings);
         let mut img = mcmc_image(&scene, mask.as_ref(), &settings, &r);

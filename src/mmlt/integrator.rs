@@ -114,10 +114,11 @@ pub const DEFAULT_SIGMA: f32 = 0.01;
 /// Refuse a render whose buffers cannot fit in memory, before anything is rendered: per pixel,
 /// one f64 RGB sum per rendered depth (24 B each) plus the OMC-like rest (the round's splats, the
 /// image and its writer's copy; `omc::BYTES_PER_PIXEL`), and one f32 weight per bootstrap sample.
-pub fn check_memory(width: usize, height: usize, s: &MmltSettings) -> Result<()> {
+/// `groups` independent halves ([`MmltRun::start`]) keep that many sums per depth.
+pub fn check_memory(width: usize, height: usize, s: &MmltSettings, groups: usize) -> Result<()> {
     let pixels = (width * height) as u64;
     let depths = u64::from(s.max_depth.saturating_sub(s.min_depth) + 1);
-    let per_pixel = 24 * depths + crate::omc::BYTES_PER_PIXEL;
+    let per_pixel = 24 * depths * groups.max(1) as u64 + crate::omc::BYTES_PER_PIXEL;
     let bytes = pixels
         .saturating_mul(per_pixel)
         .saturating_add(depths.saturating_mul(s.bootstrap as u64).saturating_mul(4));
@@ -265,6 +266,8 @@ struct Chain {
     accepted: u64,
     /// Mutations per round.
     quota: u64,
+    /// Which of the render's independent halves the chain's splats go to.
+    group: usize,
     /// The last round's splats (pixel, weighted contribution) in order, one list per band of
     /// `band_len` pixels; kept between rounds for their capacity.
     splats: Vec<Vec<(u32, Rgb)>>,
@@ -336,132 +339,259 @@ impl Chain {
 
 /// Render (α·)I with MMLT.
 pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResult {
-    let start = Instant::now();
-    let (w, h) = (scene.width() as usize, scene.height() as usize);
-    let pixels = w * h;
-    let alpha = mask.map(|m| m.alpha.as_slice());
-    let depths: Vec<u32> = (s.min_depth..=s.max_depth).collect();
+    let mut run = MmltRun::start(scene, mask.map(|m| m.alpha.as_slice()), s, 1);
+    run.run(s.budget);
+    run.result()
+}
 
-    let (b_depth, b_spp) = normalisation(scene, alpha, s, &depths);
-    let (weights, n_boot) = bootstrap(scene, alpha, s, &depths);
-    let mut chains = start_chains(scene, alpha, s, &depths, &weights, n_boot, pixels);
-    // Mutations per round spent on each depth.
-    let mut per_depth = vec![0u64; depths.len()];
-    for c in &chains {
-        per_depth[c.slot] += c.quota;
-    }
-    // Splat sums per depth: b_d, which scales them, is only final when the chains are done.
-    let mut sums = vec![vec![[0.0f64; 3]; pixels]; depths.len()];
-    let band_len = pixels.div_ceil(SPLAT_BANDS).max(1);
-    for c in &mut chains {
-        c.splats = vec![Vec::new(); pixels.div_ceil(band_len)];
-    }
-    let mut bands: Vec<(usize, usize, &mut [[f64; 3]])> = sums
-        .iter_mut()
-        .enumerate()
-        .flat_map(|(slot, sum)| {
-            sum.chunks_mut(band_len)
-                .enumerate()
-                .map(move |(band, chunk)| (slot, band, chunk))
-        })
-        .collect();
-    let progress = match s.budget {
-        Budget::Passes(n) => Progress::new(n, "mmlt", "mutations/px", s.quiet),
-        Budget::Seconds(t) => Progress::new((t * 10.0).ceil() as u64, "mmlt", "×0.1 s", s.quiet),
-    };
-    raycount::take();
-    let chain_start = Instant::now();
-    let mut rounds = 0u64;
-    let mut partial = false;
-    while !chains.is_empty() {
-        let elapsed = chain_start.elapsed().as_secs_f64();
-        let spent = start.elapsed().as_secs_f64();
-        match s.budget {
-            Budget::Passes(n) if rounds >= n => break,
-            // Stop when the next round, at the mean round time so far, would overrun the budget.
-            Budget::Seconds(t) if rounds > 0 && spent + elapsed / rounds as f64 > t => break,
-            _ => {}
+/// An MMLT render that can be stopped and continued: the main job renders a pilot, measures it,
+/// and only then decides how long MMLT goes on. With two groups, the chains are dealt
+/// alternately (within each depth) into two independent halves whose images differ by noise
+/// alone, which estimates the render's error without a reference.
+pub struct MmltRun<'a> {
+    scene: &'a Scene,
+    alpha: Option<&'a [f32]>,
+    s: MmltSettings,
+    b_depth: Vec<f64>,
+    b_spp: u64,
+    n_boot: usize,
+    chains: Vec<Chain>,
+    /// Rendered depths.
+    nd: usize,
+    groups: usize,
+    /// Mutations per round, per (group, depth): index `group * nd + slot`.
+    per_depth: Vec<u64>,
+    /// Splat sums, indexed like `per_depth`: b_d, which scales them, is only final when the
+    /// chains are done.
+    sums: Vec<Vec<[f64; 3]>>,
+    band_len: usize,
+    rounds: u64,
+    /// Seconds spent in `start` and `run`, and in the chains' rounds alone.
+    seconds: f64,
+    chain_seconds: f64,
+    rays: RayCounts,
+    partial: bool,
+}
+
+impl<'a> MmltRun<'a> {
+    /// The start-up: each depth's b_d, the bootstrap and the chains' first states. `s.budget`
+    /// bounds the start-up's share ([`STARTUP_SHARE`]); `groups` is 1, or 2 for two halves.
+    pub fn start(
+        scene: &'a Scene,
+        alpha: Option<&'a [f32]>,
+        s: &MmltSettings,
+        groups: usize,
+    ) -> MmltRun<'a> {
+        let begin = Instant::now();
+        let pixels = scene.width() as usize * scene.height() as usize;
+        let depths: Vec<u32> = (s.min_depth..=s.max_depth).collect();
+        let nd = depths.len();
+        let groups = groups.clamp(1, 2);
+        let (b_depth, b_spp) = normalisation(scene, alpha, s, &depths);
+        let (weights, n_boot) = bootstrap(scene, alpha, s, &depths);
+        let mut chains = start_chains(scene, alpha, s, &depths, &weights, n_boot, pixels);
+        let mut per_depth = vec![0u64; groups * nd];
+        let mut rank = vec![0usize; nd];
+        for c in &mut chains {
+            c.group = rank[c.slot] % groups;
+            rank[c.slot] += 1;
+            per_depth[c.group * nd + c.slot] += c.quota;
         }
-        // An interrupted render still makes one round, so its partial image has every depth.
-        if signal::interrupted() {
-            partial = true;
-            if rounds > 0 {
-                break;
+        let band_len = pixels.div_ceil(SPLAT_BANDS).max(1);
+        for c in &mut chains {
+            c.splats = vec![Vec::new(); pixels.div_ceil(band_len)];
+        }
+        MmltRun {
+            scene,
+            alpha,
+            s: s.clone(),
+            b_depth,
+            b_spp,
+            n_boot,
+            chains,
+            nd,
+            groups,
+            per_depth,
+            sums: vec![vec![[0.0f64; 3]; pixels]; groups * nd],
+            band_len,
+            rounds: 0,
+            seconds: begin.elapsed().as_secs_f64(),
+            chain_seconds: 0.0,
+            rays: RayCounts::default(),
+            partial: false,
+        }
+    }
+
+    /// Seconds spent so far (start-up and rounds).
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    /// Go on until the render holds `budget` in all: `Passes(n)` mutations per pixel, or
+    /// `Seconds(t)` of its own time (start-up included), or until the user interrupts.
+    pub fn run(&mut self, budget: Budget) {
+        let begin = Instant::now();
+        let (scene, alpha, nd) = (self.scene, self.alpha, self.nd);
+        let s = &self.s;
+        let band_len = self.band_len;
+        let chains = &mut self.chains;
+        let mut bands: Vec<(usize, usize, &mut [[f64; 3]])> = self
+            .sums
+            .iter_mut()
+            .enumerate()
+            .flat_map(|(k, sum)| {
+                sum.chunks_mut(band_len)
+                    .enumerate()
+                    .map(move |(band, chunk)| (k, band, chunk))
+            })
+            .collect();
+        let (before, rounds_before) = (self.seconds, self.rounds);
+        let progress = match budget {
+            Budget::Passes(n) => Progress::new(
+                n.saturating_sub(rounds_before),
+                "mmlt",
+                "mutations/px",
+                s.quiet,
+            ),
+            Budget::Seconds(t) => Progress::new(
+                ((t - before).max(0.0) * 10.0).ceil() as u64,
+                "mmlt",
+                "×0.1 s",
+                s.quiet,
+            ),
+        };
+        raycount::take();
+        let mut rounds = 0u64;
+        while !chains.is_empty() {
+            let elapsed = begin.elapsed().as_secs_f64();
+            let spent = before + elapsed;
+            match budget {
+                Budget::Passes(n) if rounds_before + rounds >= n => break,
+                // Stop when the next round, at the mean round time so far, would overrun the budget.
+                Budget::Seconds(t) if rounds > 0 && spent + elapsed / rounds as f64 > t => break,
+                Budget::Seconds(t) if rounds == 0 && spent >= t && rounds_before > 0 => break,
+                _ => {}
             }
-        }
-        chains
-            .par_iter_mut()
-            .for_each(|c| c.run(scene, alpha, s, b_depth[c.slot], band_len));
-        // Each band of each depth's sums takes its splats in chain order, bands in parallel:
-        // every pixel adds its splats in the same order whatever the thread count.
-        bands.par_iter_mut().for_each(|(slot, band, sum)| {
-            let base = *band * band_len;
-            for c in chains.iter().filter(|c| c.slot == *slot) {
-                for &(p, v) in &c.splats[*band] {
-                    let acc = &mut sum[p as usize - base];
-                    acc[0] += v.x as f64;
-                    acc[1] += v.y as f64;
-                    acc[2] += v.z as f64;
+            // An interrupted render still makes one round, so its partial image has every depth.
+            if signal::interrupted() {
+                self.partial = true;
+                if rounds_before + rounds > 0 {
+                    break;
                 }
             }
-        });
-        rounds += 1;
-        progress.set(match s.budget {
-            Budget::Passes(_) => rounds,
-            Budget::Seconds(_) => (start.elapsed().as_secs_f64() * 10.0) as u64,
-        });
+            let b_depth = &self.b_depth;
+            chains
+                .par_iter_mut()
+                .for_each(|c| c.run(scene, alpha, s, b_depth[c.slot], band_len));
+            // Each band of each depth's sums takes its splats in chain order, bands in parallel:
+            // every pixel adds its splats in the same order whatever the thread count.
+            let chains = &*chains;
+            bands.par_iter_mut().for_each(|(k, band, sum)| {
+                let base = *band * band_len;
+                let (group, slot) = (*k / nd, *k % nd);
+                for c in chains.iter().filter(|c| c.slot == slot && c.group == group) {
+                    for &(p, v) in &c.splats[*band] {
+                        let acc = &mut sum[p as usize - base];
+                        acc[0] += v.x as f64;
+                        acc[1] += v.y as f64;
+                        acc[2] += v.z as f64;
+                    }
+                }
+            });
+            rounds += 1;
+            progress.set(match budget {
+                Budget::Passes(_) => rounds,
+                Budget::Seconds(_) => (begin.elapsed().as_secs_f64() * 10.0) as u64,
+            });
+        }
+        progress.finish();
+        if chains.is_empty() && !signal::interrupted() {
+            // Nothing to render (no light reaches the rendered depths): the budget is spent at once.
+            rounds = match budget {
+                Budget::Passes(n) => n.saturating_sub(rounds_before),
+                Budget::Seconds(_) => 0,
+            };
+        }
+        self.rounds += rounds;
+        let elapsed = begin.elapsed().as_secs_f64();
+        self.seconds += elapsed;
+        self.chain_seconds += elapsed;
+        self.rays = self.rays + raycount::take();
     }
-    progress.finish();
-    if chains.is_empty() && !signal::interrupted() {
-        // Nothing to render (no light reaches the rendered depths): the budget is spent at once.
-        rounds = match s.budget {
-            Budget::Passes(n) => n,
-            Budget::Seconds(_) => 0,
-        };
+
+    /// The image of the sums at `group`'s share (`None`: both groups), depth by depth. Splats of
+    /// depth d are worth b_d / (their mutations per pixel); with Kelemen's weights, which already
+    /// hold b_d, 1 / (their mutations per pixel). A depth whose chains all fell into one group
+    /// enters both halves whole, so that the halves differ only where they are independent.
+    fn image(&self, group: Option<usize>) -> Vec<[f32; 3]> {
+        let pixels = self.sums.first().map_or(0, Vec::len);
+        let (nd, groups) = (self.nd, self.groups);
+        // Per depth: which of the sums enter, and their scale.
+        let parts: Vec<(Vec<usize>, f64)> = (0..nd)
+            .map(|d| {
+                let count = |g: usize| self.per_depth[g * nd + d];
+                let ks: Vec<usize> = match group {
+                    Some(g) if (0..groups).all(|o| count(o) > 0) => vec![g * nd + d],
+                    _ => (0..groups).map(|g| g * nd + d).collect(),
+                };
+                let m: u64 = ks.iter().map(|&k| self.per_depth[k]).sum::<u64>() * self.rounds;
+                let mpp_d = m as f64 / pixels as f64;
+                let scale = match (m, self.s.kelemen_mis) {
+                    (0, _) => 0.0,
+                    (_, true) => 1.0 / mpp_d,
+                    (_, false) => self.b_depth[d] / mpp_d,
+                };
+                (ks, scale)
+            })
+            .collect();
+        (0..pixels)
+            .map(|p| {
+                let v = parts.iter().fold([0.0f64; 3], |acc, (ks, scale)| {
+                    let sum = ks.iter().fold([0.0f64; 3], |a, &k| {
+                        std::array::from_fn(|c| a[c] + self.sums[k][p][c])
+                    });
+                    std::array::from_fn(|c| acc[c] + sum[c] * scale)
+                });
+                v.map(|x| x as f32)
+            })
+            .collect()
     }
-    // Splats of depth d are worth b_d / (its mutations per pixel); with Kelemen's weights, which
-    // already hold b_d, 1 / (its mutations per pixel).
-    let scale: Vec<f64> = per_depth
-        .iter()
-        .zip(&b_depth)
-        .map(|(&m, &bd)| {
-            let mpp_d = (m * rounds) as f64 / pixels as f64;
-            match (m * rounds, s.kelemen_mis) {
-                (0, _) => 0.0,
-                (_, true) => 1.0 / mpp_d,
-                (_, false) => bd / mpp_d,
-            }
-        })
-        .collect();
-    let mut rgb = vec![[0.0f32; 3]; pixels];
-    for (p, out) in rgb.iter_mut().enumerate() {
-        let v = (0..depths.len()).fold([0.0f64; 3], |acc, d| {
-            std::array::from_fn(|c| acc[c] + sums[d][p][c] * scale[d])
-        });
-        *out = v.map(|x| x as f32);
+
+    /// The two independent halves' images (with one group, the whole image twice).
+    pub fn halves(&self) -> [Vec<[f32; 3]>; 2] {
+        if self.groups < 2 {
+            let whole = self.image(None);
+            return [whole.clone(), whole];
+        }
+        [self.image(Some(0)), self.image(Some(1))]
     }
-    let mutations = rounds * pixels as u64;
-    let accepted: u64 = chains.iter().map(|c| c.accepted).sum();
-    MmltResult {
-        width: w,
-        height: h,
-        rgb,
-        mutations,
-        mutations_per_pixel: rounds,
-        seconds: start.elapsed().as_secs_f64(),
-        chain_seconds: chain_start.elapsed().as_secs_f64(),
-        rays: raycount::take(),
-        partial,
-        b: b_depth.iter().sum(),
-        b_depth,
-        b_spp,
-        bootstrap: n_boot,
-        chains: chains.len(),
-        acceptance: if chains.is_empty() || rounds == 0 {
-            0.0
-        } else {
-            accepted as f64 / mutations as f64
-        },
+
+    /// The render so far.
+    pub fn result(&self) -> MmltResult {
+        let pixels = self.sums.first().map_or(0, Vec::len);
+        let mutations = self.rounds * pixels as u64;
+        let accepted: u64 = self.chains.iter().map(|c| c.accepted).sum();
+        MmltResult {
+            width: self.scene.width() as usize,
+            height: self.scene.height() as usize,
+            rgb: self.image(None),
+            mutations,
+            mutations_per_pixel: self.rounds,
+            seconds: self.seconds,
+            chain_seconds: self.chain_seconds,
+            rays: self.rays,
+            partial: self.partial,
+            b: self.b_depth.iter().sum(),
+            b_depth: self.b_depth.clone(),
+            b_spp: self.b_spp,
+            bootstrap: self.n_boot,
+            chains: self.chains.len(),
+            acceptance: if self.chains.is_empty() || self.rounds == 0 {
+                0.0
+            } else {
+                accepted as f64 / mutations as f64
+            },
+        }
     }
 }
 
@@ -709,6 +839,7 @@ fn start_chains(
                 current,
                 accepted: 0,
                 quota,
+                group: 0,
                 splats: Vec::new(),
             }
         })

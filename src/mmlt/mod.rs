@@ -6,6 +6,6 @@ pub mod integrator;
 pub mod sampler;
 
 pub use integrator::{
-    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltResult, MmltSettings, check_memory,
-    mcmc_image, render,
+    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltResult, MmltRun, MmltSettings,
+    check_memory, mcmc_image, render,
 };

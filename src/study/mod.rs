@@ -13,7 +13,7 @@ use crate::exrio::ExrImage;
 use crate::integrators::Method;
 use crate::mask::MaskParams;
 use crate::metrics::{Scores, scores};
-use crate::mix::{MixSettings, Split, mix};
+use crate::mix::{MixSettings, Partner, Split, mix};
 use crate::mmlt::{
     DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, MmltSettings, render as render_mmlt,
 };
@@ -32,13 +32,15 @@ pub enum StudyMethod {
     Mmlt,
     /// MMLT with Kelemen et al.'s MIS of large steps (the paper's Figure 8 baseline).
     Kelemen,
-    /// The paper's method at a half/half split, pairing with the scene's paper OMC method.
+    /// The paper's method at a fixed split, pairing with the scene's paper OMC method.
     Mix(Split),
+    /// The main job with its defaults (`mixmc-mix SCENE --time T`): partner and split measured.
+    Main,
 }
 
 impl StudyMethod {
     /// Every method, in the order `--methods` lists them.
-    const ALL: [StudyMethod; 8] = [
+    const ALL: [StudyMethod; 9] = [
         StudyMethod::Omc(Method::Pt),
         StudyMethod::Omc(Method::Bpt),
         StudyMethod::Omc(Method::Lt),
@@ -47,6 +49,7 @@ impl StudyMethod {
         StudyMethod::Kelemen,
         StudyMethod::Mix(Split::Half),
         StudyMethod::Mix(Split::Auto),
+        StudyMethod::Main,
     ];
 
     pub fn name(self) -> &'static str {
@@ -56,6 +59,8 @@ impl StudyMethod {
             StudyMethod::Kelemen => "kelemen",
             StudyMethod::Mix(Split::Half) => "mix",
             StudyMethod::Mix(Split::Auto) => "mix-auto",
+            StudyMethod::Mix(Split::Measured) => "mix-measured",
+            StudyMethod::Main => "main",
         }
     }
 }
@@ -258,8 +263,11 @@ fn render_one(
             rec.mutations_per_pixel = r.mutations_per_pixel as f64;
             r.rgb
         }
-        StudyMethod::Mix(split) => {
-            let omc = paper_omc(&l.name);
+        StudyMethod::Mix(_) | StudyMethod::Main => {
+            let (omc, split) = match method {
+                StudyMethod::Mix(split) => (Partner::from(paper_omc(&l.name)), split),
+                _ => (Partner::Auto, Split::Measured),
+            };
             let m = mix(
                 scene,
                 &MixSettings {
@@ -277,7 +285,7 @@ fn render_one(
                 },
                 Path::new(""),
             )?;
-            rec.omc = omc.name().into();
+            rec.omc = m.method.name().into();
             rec.seconds = m.phases.total;
             rec.spp = m.image.float_attr("mixmc.spp").unwrap_or(0.0);
             rec.mutations_per_pixel = m

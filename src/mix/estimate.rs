@@ -1,0 +1,275 @@
+//! Error estimates without a reference, from two independent halves of a render (OMC: its even
+//! and odd passes; MMLT: two groups of chains). The main job compares methods and splits its
+//! budget by them, so they must rank methods the way the paper's LDR MSE against a converged
+//! reference would after the whole budget, not after a short pilot.
+//!
+//! Hence the error is linearised: the halves give each pixel's variance of the mean in linear
+//! radiance (unbiased at any sample count), which is carried into LDR by the slope of
+//! `ldr(x) = 255·clamp(x,0,1)^(1/2.2)` at a smoothed level of the image. Taking the LDR
+//! difference of two short pilots directly would not do: at a few samples per pixel a firefly is
+//! clamped to 255 and the gamma curve bends, so the error of a spiky method is underestimated
+//! against its error at the full budget, where the same spike is spread over many samples.
+
+use crate::film::Film;
+use crate::math::Rgb;
+use rayon::prelude::*;
+
+/// The smallest level the LDR slope is taken at: the slope of `x^(1/2.2)` grows without bound
+/// at black, where a render's noise is spread over an LDR step or two, not multiplied by ∞.
+const LEVEL_FLOOR: f32 = 1.0 / 512.0;
+
+/// Slope of the paper's LDR curve at linear value `x` (0 where the clamp holds it at 255).
+fn ldr_slope(x: f32) -> f64 {
+    if x >= 1.0 {
+        return 0.0;
+    }
+    let x = x.max(LEVEL_FLOOR) as f64;
+    255.0 / 2.2 * x.powf(1.0 / 2.2 - 1.0)
+}
+
+/// Two independent estimates of the same image, as means, with their sample weights: the whole
+/// estimate is their weighted mean.
+pub struct Halves<'a> {
+    pub a: &'a [[f32; 3]],
+    pub b: &'a [[f32; 3]],
+    pub wa: f64,
+    pub wb: f64,
+}
+
+impl Halves<'_> {
+    /// Per pixel and channel, the variance of the whole estimate: Var(a − b) = σ²(1/wa + 1/wb)
+    /// and the whole estimate has σ²/(wa + wb).
+    pub fn variance(&self) -> Vec<[f64; 3]> {
+        let k = self.wa * self.wb / ((self.wa + self.wb) * (self.wa + self.wb));
+        self.a
+            .par_iter()
+            .zip(self.b)
+            .map(|(a, b)| {
+                std::array::from_fn(|c| {
+                    let d = (a[c] - b[c]) as f64;
+                    if d.is_finite() { d * d * k } else { 0.0 }
+                })
+            })
+            .collect()
+    }
+
+    /// The whole estimate.
+    pub fn whole(&self) -> Vec<[f32; 3]> {
+        let t = (self.wa + self.wb) as f32;
+        let (wa, wb) = (self.wa as f32 / t, self.wb as f32 / t);
+        self.a
+            .iter()
+            .zip(self.b)
+            .map(|(a, b)| std::array::from_fn(|c| wa * a[c] + wb * b[c]))
+            .collect()
+    }
+
+    /// Per pixel, the expected LDR squared error (mean over channels) of the whole estimate,
+    /// linearised at `level` (the image's value there).
+    pub fn ldr_error(&self, level: &[[f32; 3]]) -> Vec<f64> {
+        self.variance()
+            .iter()
+            .zip(level)
+            .map(|(v, l)| (0..3).map(|c| ldr_slope(l[c]).powi(2) * v[c]).sum::<f64>() / 3.0)
+            .collect()
+    }
+}
+
+/// Side of the blocks in which [`missing_light`] compares two renders.
+const BLOCK: usize = 8;
+
+/// The image-mean LDR squared error that `m` shows against `reference` beyond both renders'
+/// noise, block by block: the light a spiky estimator has not found yet. Its variance cannot
+/// show it: a caustic that PT's pilot never hit leaves its image dark and its halves alike, and
+/// the pilot then rates PT as clean (caustic-tiny: PT's rate 1.5, BPT's 7; the mask on PT's
+/// snapshot was empty). Every method is unbiased, so a block darker than the reference by
+/// more than the noise allows is such light; brighter ones count too, as spikes not yet
+/// averaged out.
+pub fn missing_light(
+    m: &Halves,
+    reference: &Halves,
+    level: &[[f32; 3]],
+    width: usize,
+    height: usize,
+) -> f64 {
+    let (mm, mr) = (m.whole(), reference.whole());
+    let (vm, vr) = (m.variance(), reference.variance());
+    let (bw, bh) = (width.div_ceil(BLOCK), height.div_ceil(BLOCK));
+    let sum: f64 = (0..bw * bh)
+        .into_par_iter()
+        .map(|blk| {
+            let (x0, y0) = ((blk % bw) * BLOCK, (blk / bw) * BLOCK);
+            let mut acc = [[0.0f64; 3]; 5];
+            let mut n = 0usize;
+            for y in y0..(y0 + BLOCK).min(height) {
+                for x in x0..(x0 + BLOCK).min(width) {
+                    let p = y * width + x;
+                    for c in 0..3 {
+                        let fin = |v: f32| if v.is_finite() { v as f64 } else { 0.0 };
+                        acc[0][c] += fin(mm[p][c]);
+                        acc[1][c] += fin(mr[p][c]);
+                        acc[2][c] += vm[p][c];
+                        acc[3][c] += vr[p][c];
+                        acc[4][c] += fin(level[p][c]);
+                    }
+                    n += 1;
+                }
+            }
+            let n = n as f64;
+            (0..3)
+                .map(|c| {
+                    let d = (acc[0][c] - acc[1][c]) / n;
+                    let noise = (acc[2][c] + acc[3][c]) / (n * n);
+                    let excess = (d * d - noise).max(0.0);
+                    ldr_slope((acc[4][c] / n) as f32).powi(2) * excess * n
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum();
+    sum / (width * height) as f64
+}
+
+/// A 3×3 box blur (borders clamped): the level an error is linearised at, steadier than one
+/// pixel's noisy mean, whose spikes would otherwise hide their own variance under the clamp.
+pub fn smooth(rgb: &[[f32; 3]], width: usize, height: usize) -> Vec<[f32; 3]> {
+    (0..width * height)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % width, p / width);
+            let mut acc = [0.0f32; 3];
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let xx = (x as i64 + dx).clamp(0, width as i64 - 1) as usize;
+                    let yy = (y as i64 + dy).clamp(0, height as i64 - 1) as usize;
+                    let v = rgb[yy * width + xx];
+                    for c in 0..3 {
+                        acc[c] += if v[c].is_finite() { v[c] } else { 0.0 };
+                    }
+                }
+            }
+            acc.map(|v| v / 9.0)
+        })
+        .collect()
+}
+
+/// The mean of a film's direct and indirect sums over `passes`.
+pub fn film_means(film: &Film, passes: u64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let inv = 1.0 / passes.max(1) as f32;
+    let mean = |v: &[Rgb]| v.iter().map(|c| (*c * inv).to_array()).collect();
+    (mean(&film.direct), mean(&film.indirect))
+}
+
+/// Element-wise sum of two images.
+pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Rng, Sampler};
+
+    /// Gaussian noise of known σ around a known level: the estimate must find slope² · σ²/n.
+    #[test]
+    fn halves_estimate_the_linearised_error_of_the_whole() {
+        let (n, level, sigma) = (20_000usize, 0.25f32, 0.01f64);
+        let mut rng = Rng::new(7, 0, 0);
+        let mut gauss = || {
+            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
+            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+        };
+        // Half a holds 3 samples per pixel, half b 1: their means have σ²/3 and σ².
+        let mut a = Vec::with_capacity(n);
+        let mut b = Vec::with_capacity(n);
+        for _ in 0..n {
+            let mean3 = (gauss() + gauss() + gauss()) / 3.0;
+            a.push([level + (sigma * mean3) as f32; 3]);
+            b.push([level + (sigma * gauss()) as f32; 3]);
+        }
+        let h = Halves {
+            a: &a,
+            b: &b,
+            wa: 3.0,
+            wb: 1.0,
+        };
+        let e = h.ldr_error(&vec![[level; 3]; n]);
+        let got = e.iter().sum::<f64>() / n as f64;
+        let want = ldr_slope(level).powi(2) * sigma * sigma / 4.0;
+        assert!(
+            (got / want - 1.0).abs() < 0.05,
+            "estimated {got}, expected {want}"
+        );
+        // Above 1 the clamp hides all noise.
+        assert_eq!(h.ldr_error(&vec![[1.5; 3]; n]).iter().sum::<f64>(), 0.0);
+    }
+
+    #[test]
+    fn missing_light_is_a_systematic_difference_not_noise() {
+        let (w, h) = (32usize, 32usize);
+        let mut rng = Rng::new(11, 0, 0);
+        let mut noisy = |mean: f32| -> Vec<[f32; 3]> {
+            (0..w * h)
+                .map(|_| [mean + 0.02 * (rng.next_1d() - 0.5); 3])
+                .collect()
+        };
+        let (ra, rb) = (noisy(0.3), noisy(0.3));
+        let reference = Halves {
+            a: &ra,
+            b: &rb,
+            wa: 1.0,
+            wb: 1.0,
+        };
+        let level = vec![[0.3f32; 3]; w * h];
+        // Another unbiased render with the same noise: nothing is missing.
+        let (ma, mb) = (noisy(0.3), noisy(0.3));
+        let same = Halves {
+            a: &ma,
+            b: &mb,
+            wa: 1.0,
+            wb: 1.0,
+        };
+        let none = missing_light(&same, &reference, &level, w, h);
+        // One that is 0.1 too dark everywhere: (slope · 0.1)² per pixel.
+        let (da, db) = (noisy(0.2), noisy(0.2));
+        let dark = Halves {
+            a: &da,
+            b: &db,
+            wa: 1.0,
+            wb: 1.0,
+        };
+        let missing = missing_light(&dark, &reference, &level, w, h);
+        let want = (ldr_slope(0.3) * 0.1).powi(2);
+        assert!(none < 0.02 * want, "noise counted as missing light: {none}");
+        assert!((missing / want - 1.0).abs() < 0.05, "{missing} vs {want}");
+    }
+
+    #[test]
+    fn slope_is_the_ldr_curves_derivative() {
+        let ldr = |x: f64| 255.0 * x.powf(1.0 / 2.2);
+        for x in [0.01f32, 0.1, 0.5, 0.9] {
+            let h = 1e-6;
+            let numeric = (ldr(x as f64 + h) - ldr(x as f64 - h)) / (2.0 * h);
+            assert!((ldr_slope(x) / numeric - 1.0).abs() < 1e-4, "{x}");
+        }
+        assert_eq!(ldr_slope(0.0), ldr_slope(LEVEL_FLOOR));
+    }
+
+    #[test]
+    fn smoothing_keeps_a_flat_image_and_spreads_a_spike() {
+        let (w, h) = (5, 4);
+        let flat = vec![[0.3f32; 3]; w * h];
+        for (s, f) in smooth(&flat, w, h).iter().zip(&flat) {
+            assert!((s[0] - f[0]).abs() < 1e-6);
+        }
+        let mut spike = vec![[0.0f32; 3]; w * h];
+        spike[2 * w + 2] = [9.0; 3];
+        let s = smooth(&spike, w, h);
+        assert!((s[2 * w + 2][0] - 1.0).abs() < 1e-6);
+        assert!((s[w + 1][1] - 1.0).abs() < 1e-6);
+        assert_eq!(s[0][0], 0.0);
+    }
+}

@@ -65,30 +65,6 @@ PASSES = [
 ] + ["Emission", "Environment", "Depth", "Normal", "Material Index", "Combined"]
 
 
-def written_passes(path):
-    """Pass names in the multilayer EXR's headers (`ViewLayer.<pass>.<channel>`): the headers of a
-    multi-part file follow the 8-byte magic and version, each a run of attributes (name, type,
-    size, value) ended by a NUL, the last header by one more."""
-    data = Path(path).read_bytes()
-    multipart = bool(data[5] & 0x10)  # version flag bit 12
-    pos, names = 8, set()
-    while True:
-        while data[pos] != 0:
-            name_end = data.index(b"\0", pos)
-            type_end = data.index(b"\0", name_end + 1)
-            size = int.from_bytes(data[type_end + 1 : type_end + 5], "little")
-            value = data[type_end + 5 : type_end + 5 + size]
-            if data[pos:name_end] == b"channels":
-                for ch in value.split(b"\0"):
-                    parts = ch.decode("latin-1").split(".")
-                    if len(parts) >= 3 and parts[0] == "ViewLayer":
-                        names.add(parts[1])
-            pos = type_end + 5 + size
-        pos += 1
-        if not multipart or data[pos] == 0:
-            return names
-
-
 def compositor_on(sc):
     """Blender 5: a compositing node group with Render Layers → Group Output, as a default file has."""
     tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
@@ -166,7 +142,7 @@ def main():
         else:
             bpy.ops.render.render()
             bpy.data.images["Render Result"].save_render(str(path))
-        have = written_passes(path)
+        have = render_cycles.multilayer_passes(path)
         lacks = [p for p in PASSES if p not in have]
         print(f"{path.name} ({name}): lacks {', '.join(lacks) if lacks else 'nothing'}", flush=True)
 

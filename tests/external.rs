@@ -324,6 +324,18 @@ fn mask_output(dir: &TempDir, name: &str, inputs: &[String], layout: &str) -> (O
     (run("mixmc-mask", &args), out)
 }
 
+/// `mixmc-mask` on `img`, written as `dir/NAME.exr`; the mask is `dir/NAME-mask.exr`.
+fn mask_of_image(dir: &TempDir, name: &str, img: &ExrImage, layout: &str) -> (Output, PathBuf) {
+    let path = dir.join(&format!("{name}.exr"));
+    img.write(&path, false).unwrap();
+    mask_output(
+        dir,
+        &format!("{name}-mask.exr"),
+        &[path.display().to_string()],
+        layout,
+    )
+}
+
 /// A mask made with a one-line note naming the `missing` passes, which its header lists too.
 fn approximate_mask(
     dir: &TempDir,
@@ -447,14 +459,7 @@ fn cycles_without_color_passes_makes_a_mask_and_no_composite() {
             ones.add(&format!("ViewLayer.{pass}.{c}"), vec![1.0; 64 * 64]);
         }
     }
-    let ones_path = dir.join("ones.exr");
-    ones.write(&ones_path, false).unwrap();
-    let (_, ones_mask) = mask_output(
-        &dir,
-        "ones-mask.exr",
-        &[ones_path.display().to_string()],
-        "cycles",
-    );
+    let (_, ones_mask) = mask_of_image(&dir, "ones", &ones, "cycles");
     assert_same_mask(&approx, &ones_mask);
 
     // And it is the mask of our layout with I = Diffuse Indirect × Color + Glossy Indirect +
@@ -491,14 +496,7 @@ fn cycles_without_color_passes_makes_a_mask_and_no_composite() {
             .unwrap()
             .to_vec(),
     );
-    let ours_path = dir.join("ours.exr");
-    ours.write(&ours_path, false).unwrap();
-    let (out, ours_mask) = mask_output(
-        &dir,
-        "ours-mask.exr",
-        &[ours_path.display().to_string()],
-        "mixmc",
-    );
+    let (out, ours_mask) = mask_of_image(&dir, "ours", &ours, "mixmc");
     assert!(
         out.status.success() && out.stderr.is_empty(),
         "{}",

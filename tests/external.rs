@@ -444,13 +444,24 @@ fn cycles_without_color_passes_makes_a_mask_and_no_composite() {
         "cycles",
         &["Glossy Color", "Transmission Color"],
     );
-    let note = String::from_utf8_lossy(
-        &mask_output(&dir, "again.exr", &[fixture(CYCLES_LACKS_COLORS)], "cycles")
-            .0
-            .stderr,
-    )
-    .into_owned();
+    // The note lists how Blender is asked for them; --json says what the header says.
+    let again = dir.join("again.exr").display().to_string();
+    let json = [
+        &fixture(CYCLES_LACKS_COLORS),
+        "--layout",
+        "cycles",
+        "--json",
+        "-o",
+        &again,
+    ];
+    let out = run("mixmc-mask", &json);
+    let note = String::from_utf8_lossy(&out.stderr);
     assert!(note.contains(listed), "{note}");
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        summary["input_approximate"],
+        serde_json::json!(["Glossy Color", "Transmission Color"])
+    );
 
     // Where the missing Color would have been 1 everywhere, the complete file's mask is the same.
     let mut ones = full.clone();

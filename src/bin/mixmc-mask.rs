@@ -198,6 +198,7 @@ fn main() -> ExitCode {
                 "top_median": mask.top_median,
                 "fov_y": params.fov_y,
                 "fov_source": fov_source,
+                "input_approximate": approximate,
                 "compute_seconds": seconds,
                 "compute_cpu_seconds": cpu_seconds,
             })

@@ -2,12 +2,12 @@
 //! renderer turns its files into our quantities — direct light `D` (depth ≤ 1), indirect light
 //! `I`, the renderer's own full image, and the G-buffer (distance, normal, material id).
 //!
-//! | preset | files | D | I | full |
-//! |---|---|---|---|---|
-//! | `mixmc` | one EXR, channels by name (DESIGN §3) | `direct.*` | `indirect.*` | `R,G,B` |
-//! | `cycles` | one multilayer EXR (`ViewLayer.<pass>.*`) | Emit + Env + Σ Dir×Col | Σ Ind×Col | `Combined` |
-//! | `luxcore` | a directory of `<AOV>.exr` + `MATERIAL_ID.png` | EMISSION + DIRECT_* | INDIRECT_* | `RADIANCE_GROUP` |
-//! | `mitsuba` | the `aov` integrator's EXR, then a `max_depth=2` render | second file | full − D | `image.*` |
+//! | preset | files | D | I | the mask's I at least | full |
+//! |---|---|---|---|---|---|
+//! | `mixmc` | one EXR, channels by name (DESIGN §3) | `direct.*` | `indirect.*` | `indirect.*` | `R,G,B` |
+//! | `cycles` | one multilayer EXR (`ViewLayer.<pass>.*`) | Emit + Env + Σ Dir×Col | Σ Ind×Col | one Ind | `Combined` |
+//! | `luxcore` | a directory of `<AOV>.exr` + `MATERIAL_ID.png` | EMISSION + DIRECT_* | INDIRECT_* | one INDIRECT_* | `RADIANCE_GROUP` |
+//! | `mitsuba` | the `aov` integrator's EXR, then a `max_depth=2` render | second file | full − D | both files | `image.*` |
 //!
 //! Σ runs over Diffuse, Glossy and Transmission. Background pixels get an infinite distance, as
 //! ours: Cycles writes 1e10 there, Mitsuba 0, LuxCore +∞ (and white in MATERIAL_ID.png, whose red
@@ -16,7 +16,7 @@
 //! 4096 pixels, down to −2.0), so its I is a difference of two estimates, negative at places; it is
 //! kept as it is, so that D + I is the full image and the mean stays unbiased.
 //!
-//! Files that lack a pass (DESIGN §7: Blender writes a Color pass only when its
+//! Files that lack a pass (`docs/external.md`: Blender writes a Color pass only when its
 //! `use_pass_*_color` is set, a LuxCore film has only the outputs it was given) are read by one
 //! rule for every preset, in [`Source::light`] and [`Source::mask_indirect`]. D and I for
 //! `mixmc-composite` must be exact: every pass of their sums, or a refusal naming all that are
@@ -541,9 +541,20 @@ impl Source {
         (self.preset == Preset::Cycles).then(|| {
             let option = match pass {
                 "Emission" => "emit".to_string(),
+                "Depth" => "z".to_string(),
                 other => other.to_lowercase().replace(' ', "_"),
             };
             format!("use_pass_{option}")
+        })
+    }
+
+    /// A G-buffer pass's error, with how Blender is asked for the pass.
+    fn hinted<T>(&self, r: Result<T>, pass: &str) -> Result<T> {
+        r.map_err(|mut e| {
+            if let Some(option) = self.request(pass) {
+                e.message += &format!("; Blender writes {pass} when {option} is set");
+            }
+            e
         })
     }
 
@@ -635,9 +646,10 @@ impl Source {
     pub fn depth(&self) -> Result<Vec<f32>> {
         let (raw, miss): (&[f32], fn(f32) -> bool) = match self.preset {
             Preset::Mixmc => (self.channel(0, &self.names.depth)?, |_| false),
-            Preset::Cycles => (self.channel(0, &format!("{CYCLES_LAYER}.Depth.Z"))?, |z| {
-                z >= CYCLES_MISS
-            }),
+            Preset::Cycles => (
+                self.hinted(self.channel(0, &format!("{CYCLES_LAYER}.Depth.Z")), "Depth")?,
+                |z| z >= CYCLES_MISS,
+            ),
             Preset::Luxcore => match self.lux_file("DEPTH") {
                 Some(i) => (self.channel(i, "R")?, |_| false),
                 None => return Err(self.missing_error(&self.lux_pass("DEPTH"))),
@@ -657,7 +669,7 @@ impl Source {
             Preset::Mixmc => self.rgb_spec(0, &self.names.normal, ["X", "Y", "Z"]),
             Preset::Cycles => {
                 let p = |c: &str| format!("{CYCLES_LAYER}.Normal.{c}");
-                self.rgb(0, [&p("X"), &p("Y"), &p("Z")])
+                self.hinted(self.rgb(0, [&p("X"), &p("Y"), &p("Z")]), "Normal")
             }
             Preset::Luxcore => self.require_pass(&self.lux_pass("SHADING_NORMAL")),
             Preset::Mitsuba => self.rgb(0, ["normal.X", "normal.Y", "normal.Z"]),
@@ -669,7 +681,10 @@ impl Source {
         Ok(match self.preset {
             Preset::Mixmc => self.id_channel(0, &self.names.matid)?.to_vec(),
             Preset::Cycles => self
-                .id_channel(0, &format!("{CYCLES_LAYER}.Material Index.X"))?
+                .hinted(
+                    self.id_channel(0, &format!("{CYCLES_LAYER}.Material Index.X")),
+                    "Material Index",
+                )?
                 .to_vec(),
             Preset::Luxcore => self.lux_matid.clone().ok_or_else(|| {
                 Error::in_file(
@@ -960,7 +975,8 @@ mod tests {
         let src = open_one(Preset::Cycles, without(cycles_image(1), &["Normal"]));
         let e = src.normal().unwrap_err().to_string();
         assert!(
-            e.starts_with("in.exr: --layout cycles: missing channel `ViewLayer.Normal.X`"),
+            e.starts_with("in.exr: --layout cycles: missing channel `ViewLayer.Normal.X`")
+                && e.ends_with("; Blender writes Normal when use_pass_normal is set"),
             "{e}"
         );
         let src = luxcore(&[("INDIRECT_DIFFUSE", 1.0)]);

@@ -1,13 +1,14 @@
-"""Which passes does Blender Cycles really write? Renders a tiny box (a diffuse floor, an emitter,
-and optionally a glossy and a glass block) through render_cycles.build, with every pass the
-`cycles` layout reads requested, and prints for each variant the requested passes that the
-multilayer EXR lacks (read back by Blender's own image loader).
+"""Which passes does Blender Cycles really write? Renders a tiny scene (a diffuse floor, a ceiling
+light, and a glossy and a glass cube where the variant names them) through render_cycles.build,
+which requests every pass the `cycles` layout reads, and prints for each variant the requested
+passes that the multilayer EXR's headers lack (docs/external.md has the table).
 
     tools/.venv-bpy/bin/python tools/external/cycles_passes.py [--size 8] [--spp 4] [--keep DIR]
 
-A variant's name lists the BSDF kinds in its scene; `hidden` variants put the block behind the
-camera, `compositor` ones render with Blender's compositor on (a Render Layers node wired to the
-Composite output, as a default .blend has).
+Besides the BSDF kinds, the variants put the cubes behind the camera, turn Blender's compositor on
+(Render Layers wired to the group output, as a default .blend has), set bounce limits to 0, save
+through `Render Result.save_render` instead of `write_still`, and leave two Color passes
+unrequested.
 """
 
 import argparse
@@ -22,9 +23,9 @@ import exported  # noqa: E402
 import render_cycles  # noqa: E402
 
 
-def quad(z, half, emission=None, material="floor", lift=0.0):
-    """A horizontal square at height z, facing up (or down when `emission` is set: a ceiling light)."""
-    p = [(-half, -half + lift, z), (half, -half + lift, z), (half, half + lift, z), (-half, half + lift, z)]
+def quad(z, half, emission=None, material="floor"):
+    """A horizontal square at height z, facing up (down when `emission` is set: a ceiling light)."""
+    p = [(-half, -half, z), (half, -half, z), (half, half, z), (-half, half, z)]
     tris = [(0, 1, 2), (0, 2, 3)] if emission is None else [(0, 2, 1), (0, 3, 2)]
     return exported.Shape(p, tris, material, emission)
 

@@ -139,7 +139,8 @@ def main():
         session.GetFilm().Save()
     finally:
         os.chdir(cwd)
-    lacks = [f for f in [f"{aov}.exr" for aov in AOVS] + ["MATERIAL_ID.png"] if not (out / f).is_file()]
+    wanted = [f"{aov}.exr" for aov in AOVS] + ["MATERIAL_ID.png"]
+    lacks = [f for f in wanted if not (out / f).is_file()]
     if lacks:
         print(f"render_luxcore.py: {out}: LuxCore wrote no {', '.join(lacks)}", file=sys.stderr, flush=True)
     # pyluxcore 2.11.2 crashes (SIGSEGV) in its destructors at exit; the files are written.

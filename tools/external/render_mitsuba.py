@@ -31,7 +31,9 @@ def render(scene, integrator, spp, seed, path, channels):
     have = {written.struct_()[i].name for i in range(written.channel_count())}
     lacks = [c for c in channels if c not in have]
     if lacks:
-        sys.exit(f"render_mitsuba.py: {path}: Mitsuba wrote no {', '.join(lacks)} (has {', '.join(sorted(have))})")
+        sys.exit(
+            f"render_mitsuba.py: {path}: Mitsuba wrote no {', '.join(lacks)} (has {', '.join(sorted(have))})"
+        )
 
 
 def main():

@@ -63,6 +63,7 @@ fn frame() -> MaskInput {
         normal,
         matid,
         indirect: vec![[0.0; 3]; n],
+        approximate: Vec::new(),
     }
 }
 

@@ -123,8 +123,7 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
             ));
         }
     }
-    let d = omc.source.direct().map_err(|e| e.with_file(omc.path))?;
-    let i_omc = omc.source.indirect().map_err(|e| e.with_file(omc.path))?;
+    let (d, i_omc) = omc.source.light().map_err(|e| e.with_file(omc.path))?;
     check_finite_rgb(&d, w, "the direct light").map_err(|e| e.with_file(omc.path))?;
     check_finite_rgb(&i_omc, w, "the indirect light").map_err(|e| e.with_file(omc.path))?;
     let i_mcmc = mcmc

@@ -5,7 +5,7 @@ use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with, process_cpu_seconds};
 use mixmc::error::{Error, Result};
 use mixmc::layout::{GBufferArgs, Source};
-use mixmc::mask::{MaskInput, MaskParams, build, inspect, mask_image};
+use mixmc::mask::{APPROXIMATE_ATTR, MaskInput, MaskParams, build, inspect, mask_image};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -156,6 +156,14 @@ fn main() -> ExitCode {
         for w in warnings {
             eprintln!("mixmc-mask: {}: warning: {w}", input_path.display());
         }
+        let approximate = std::mem::take(&mut input.approximate);
+        if !approximate.is_empty() {
+            eprintln!(
+                "mixmc-mask: {}: note: {}",
+                input_path.display(),
+                src.approximation_note(&approximate)
+            );
+        }
         if fov_source == "fallback" {
             eprintln!(
                 "mixmc-mask: {}: warning: no mixmc.fov_y header and no --fov; assuming {FALLBACK_FOV} degrees",
@@ -190,6 +198,7 @@ fn main() -> ExitCode {
                 "top_median": mask.top_median,
                 "fov_y": params.fov_y,
                 "fov_source": fov_source,
+                "input_approximate": approximate,
                 "compute_seconds": seconds,
                 "compute_cpu_seconds": cpu_seconds,
             })
@@ -212,6 +221,9 @@ fn main() -> ExitCode {
             )
         };
         let mut out = mask_image(mask, &params, &input_path.display().to_string(), scene);
+        if !approximate.is_empty() {
+            out.set_text(APPROXIMATE_ATTR, approximate.join(", "));
+        }
         out.set_text(COMMAND_ATTR, command_line());
         out.into_file(&args.output, false)?;
         println!("{summary}");

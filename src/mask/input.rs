@@ -20,6 +20,9 @@ pub struct MaskInput {
     pub matid: Vec<f32>,
     /// Indirect RGB, kept for the inspection overlay.
     pub indirect: Vec<[f32; 3]>,
+    /// The passes an exact indirect light needs that the input lacks (the mask was built from
+    /// the others, `layout::Source::mask_indirect`); empty when it is exact.
+    pub approximate: Vec<String>,
 }
 
 /// Replace the non-finite values of each component of `data` by `fill`, in parallel; returns
@@ -59,7 +62,7 @@ impl MaskInput {
     /// Every pass is parallel: on a 4K frame they took longer, one thread alone, than the
     /// whole mask on two (BENCHMARKS.md, "Mask", twelfth pass).
     pub fn from_source(src: &Source) -> Result<(MaskInput, Vec<String>)> {
-        let mut indirect = src.indirect()?;
+        let (mut indirect, approximate) = src.mask_indirect()?;
         let depth = src.depth()?;
         let mut normal = src.normal()?;
         let mut matid = src.matid()?;
@@ -103,6 +106,7 @@ impl MaskInput {
                 normal,
                 matid,
                 indirect,
+                approximate,
             },
             warnings,
         ))

@@ -18,5 +18,5 @@ pub mod segment;
 pub mod select;
 
 pub use input::MaskInput;
-pub use output::mask_image;
+pub use output::{APPROXIMATE_ATTR, mask_image};
 pub use pipeline::{Mask, MaskParams, build};

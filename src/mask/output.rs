@@ -4,6 +4,10 @@
 use super::pipeline::{Mask, MaskParams};
 use crate::exrio::ExrImage;
 
+/// The mask's header attribute that names the passes its input lacked, where its indirect light
+/// was built without them (`layout::Source::mask_indirect`); absent when the input was complete.
+pub const APPROXIMATE_ATTR: &str = "mixmc.input_approximate";
+
 /// `mask.exr` of DESIGN §3: `input` names the AOV file it was built from, `scene` its scene.
 /// Takes the mask's buffers for the file's channels: copies of a 4K frame's would cost a pass
 /// over 130 MB of fresh memory.

@@ -131,9 +131,12 @@ def load(directory):
     return out
 
 
-def parse_args(doc, output_help):
-    """The command line the render scripts share: EXPORTED_DIR OUTPUT [--spp] [--seed] [--threads]."""
+def parse_args(doc, output_help, extra=()):
+    """The command line the render scripts share: EXPORTED_DIR OUTPUT [--spp] [--seed] [--threads],
+    and a script's own `extra` options as (flag, argparse keywords)."""
     ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    for flag, kw in extra:
+        ap.add_argument(flag, **kw)
     ap.add_argument("exported", help="directory written by mixmc-scene export --mitsuba")
     ap.add_argument("output", help=output_help)
     ap.add_argument("--spp", type=int, default=64)

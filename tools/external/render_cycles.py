@@ -8,6 +8,12 @@ counts bounces after the first hit); Lambert diffuse, sharp glass with our IOR, 
 √α (Cycles squares it); emitters only on their front side (the winding's normal), as ours.
 
     tools/.venv-bpy/bin/python tools/external/render_cycles.py EXPORTED_DIR OUT.exr --spp 64 --seed 1
+
+The written file is read back and checked for every pass the `cycles` layout reads: Blender writes
+a requested pass always (zero where the scene has no such BSDF) and an unrequested one never, not
+even a Color pass its Direct and Indirect were divided by (tools/external/cycles_passes.py). `--omit
+glossy_color` (a `use_pass_*` name without the prefix, repeatable) leaves a pass unrequested, to
+make such a file on purpose; the check then expects it missing.
 """
 
 import math
@@ -65,7 +71,51 @@ def node_material(name, mat, emission, pass_index):
     return m
 
 
-def build(ex, spp, seed, threads):
+# The view layer's passes the `cycles` layout reads (src/layout.rs), and the pass each writes.
+PASSES = {
+    "use_pass_combined": "Combined",
+    "use_pass_diffuse_direct": "Diffuse Direct",
+    "use_pass_diffuse_indirect": "Diffuse Indirect",
+    "use_pass_diffuse_color": "Diffuse Color",
+    "use_pass_glossy_direct": "Glossy Direct",
+    "use_pass_glossy_indirect": "Glossy Indirect",
+    "use_pass_glossy_color": "Glossy Color",
+    "use_pass_transmission_direct": "Transmission Direct",
+    "use_pass_transmission_indirect": "Transmission Indirect",
+    "use_pass_transmission_color": "Transmission Color",
+    "use_pass_emit": "Emission",
+    "use_pass_environment": "Environment",
+    "use_pass_z": "Depth",
+    "use_pass_normal": "Normal",
+    "use_pass_material_index": "Material Index",
+}
+
+
+def multilayer_passes(path):
+    """Pass names in a multilayer EXR's headers (`ViewLayer.<pass>.<channel>`): the headers of a
+    multi-part file follow the 8-byte magic and version, each a run of attributes (name, type,
+    size, value) ended by a NUL, the last header by one more."""
+    data = Path(path).read_bytes()
+    multipart = bool(data[5] & 0x10)  # version flag bit 12
+    pos, names = 8, set()
+    while True:
+        while data[pos] != 0:
+            name_end = data.index(b"\0", pos)
+            type_end = data.index(b"\0", name_end + 1)
+            size = int.from_bytes(data[type_end + 1 : type_end + 5], "little")
+            value = data[type_end + 5 : type_end + 5 + size]
+            if data[pos:name_end] == b"channels":
+                for ch in value.split(b"\0"):
+                    parts = ch.decode("latin-1").split(".")
+                    if len(parts) >= 3 and parts[0] == "ViewLayer":
+                        names.add(parts[1])
+            pos = type_end + 5 + size
+        pos += 1
+        if not multipart or data[pos] == 0:
+            return names
+
+
+def build(ex, spp, seed, threads, omit=()):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     for i, sh in enumerate(ex.shapes):
@@ -135,23 +185,8 @@ def build(ex, spp, seed, threads):
     scene.view_settings.view_transform = "Standard"
 
     vl = scene.view_layers[0]
-    for p in (
-        "use_pass_diffuse_direct",
-        "use_pass_diffuse_indirect",
-        "use_pass_diffuse_color",
-        "use_pass_glossy_direct",
-        "use_pass_glossy_indirect",
-        "use_pass_glossy_color",
-        "use_pass_transmission_direct",
-        "use_pass_transmission_indirect",
-        "use_pass_transmission_color",
-        "use_pass_emit",
-        "use_pass_environment",
-        "use_pass_z",
-        "use_pass_normal",
-        "use_pass_material_index",
-    ):
-        setattr(vl, p, True)
+    for p in PASSES:
+        setattr(vl, p, p.removeprefix("use_pass_") not in omit)
     s = scene.render.image_settings
     s.media_type = "MULTI_LAYER_IMAGE"  # Blender 5: multilayer EXR is its own media type
     s.file_format = "OPEN_EXR_MULTILAYER"
@@ -161,12 +196,26 @@ def build(ex, spp, seed, threads):
 
 
 def main():
-    a = exported.parse_args(__doc__, "multilayer EXR to write")
+    a = exported.parse_args(
+        __doc__,
+        "multilayer EXR to write",
+        [("--omit", dict(action="append", default=[], help="leave use_pass_OMIT unrequested"))],
+    )
+    unknown = [o for o in a.omit if f"use_pass_{o}" not in PASSES]
+    if unknown:
+        sys.exit(f"render_cycles.py: --omit {unknown[0]}: not one of {', '.join(p[9:] for p in PASSES)}")
     ex = exported.load(a.exported)
-    scene = build(ex, a.spp, a.seed, a.threads)
+    scene = build(ex, a.spp, a.seed, a.threads, a.omit)
     scene.render.filepath = str(Path(a.output).resolve())
     scene.render.use_file_extension = False
     bpy.ops.render.render(write_still=True)
+    have = multilayer_passes(a.output)
+    expected = {name for p, name in PASSES.items() if p.removeprefix("use_pass_") not in a.omit}
+    if have != expected:
+        sys.exit(
+            f"render_cycles.py: {a.output}: Blender wrote the passes {sorted(have)}, "
+            f"expected {sorted(expected)}"
+        )
 
 
 if __name__ == "__main__":

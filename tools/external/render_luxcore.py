@@ -9,6 +9,10 @@ LuxCore's one-sided mesh lights with gain 1 (radiance = our emission). Glossy (G
 Fresnel, Mitsuba's `material=none`) has no LuxCore twin and is refused.
 
     tools/.venv-lux/bin/python tools/external/render_luxcore.py EXPORTED_DIR OUT_DIR --spp 64 --seed 1
+
+Every AOV the `luxcore` layout reads is requested as a film output, and the script fails when a
+file did not appear (docs/external.md): mixmc-mask can go without an INDIRECT_* file, but
+mixmc-composite cannot.
 """
 
 import os
@@ -135,8 +139,12 @@ def main():
         session.GetFilm().Save()
     finally:
         os.chdir(cwd)
+    wanted = [f"{aov}.exr" for aov in AOVS] + ["MATERIAL_ID.png"]
+    lacks = [f for f in wanted if not (out / f).is_file()]
+    if lacks:
+        print(f"render_luxcore.py: {out}: LuxCore wrote no {', '.join(lacks)}", file=sys.stderr, flush=True)
     # pyluxcore 2.11.2 crashes (SIGSEGV) in its destructors at exit; the files are written.
-    os._exit(0)
+    os._exit(1 if lacks else 0)
 
 
 if __name__ == "__main__":

@@ -6,19 +6,34 @@ second file. Both renders use the same seed, so their camera rays and first segm
     tools/.venv/bin/python tools/external/render_mitsuba.py EXPORTED_DIR OUT.exr OUT-direct.exr --spp 64 --seed 1
 
 `load_file(…, optimize=False)` keeps one shape per PLY, so `shape_index` is one id per object
-(Mitsuba has no material-id AOV).
+(Mitsuba has no material-id AOV). Both files are read back and checked for every channel the
+`mitsuba` layout reads (src/layout.rs, docs/external.md): a missing one fails here, not later in
+mixmc-mask or mixmc-composite.
 """
 
 import argparse
+import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mitsuba as mi
 
 
-def render(scene, integrator, spp, seed, path):
+# The channels `--layout mitsuba` reads from each file.
+AOV_CHANNELS = ["image.R", "image.G", "image.B", "depth.T", "normal.X", "normal.Y", "normal.Z", "shape.I"]
+DIRECT_CHANNELS = ["R", "G", "B"]
+
+
+def render(scene, integrator, spp, seed, path, channels):
     mi.render(scene, integrator=integrator, spp=spp, seed=seed)
     scene.sensors()[0].film().bitmap().write(str(path))
+    written = mi.Bitmap(str(path))
+    have = {written.struct_()[i].name for i in range(written.channel_count())}
+    lacks = [c for c in channels if c not in have]
+    if lacks:
+        sys.exit(
+            f"render_mitsuba.py: {path}: Mitsuba wrote no {', '.join(lacks)} (has {', '.join(sorted(have))})"
+        )
 
 
 def main():
@@ -40,8 +55,9 @@ def main():
             "image": {"type": "path", "max_depth": full_depth},
         }
     )
-    render(scene, aov, a.spp, a.seed, a.output)
-    render(scene, mi.load_dict({"type": "path", "max_depth": 2}), a.spp, a.seed, a.direct)
+    render(scene, aov, a.spp, a.seed, a.output, AOV_CHANNELS)
+    direct = mi.load_dict({"type": "path", "max_depth": 2})
+    render(scene, direct, a.spp, a.seed, a.direct, DIRECT_CHANNELS)
 
 
 if __name__ == "__main__":

@@ -28,9 +28,9 @@ pub fn is_gbuffer(channel: &str) -> bool {
 }
 
 /// Header attributes that may differ between independent passes: their sample counts, seeds,
-/// timings and ray counts, the commands that made them, and where the mask file lay (its content
-/// hash must still match).
-const PER_PASS_ATTRS: [&str; 11] = [
+/// timings and ray counts, the commands that made them, where the mask file lay (its content
+/// hash must still match), and MMLT's own estimates ([`SUMMED_ATTRS`], [`MEAN_ATTRS`]).
+const PER_PASS_ATTRS: [&str; 16] = [
     "mixmc.seed",
     "mixmc.spp",
     "mixmc.mutations",
@@ -42,7 +42,21 @@ const PER_PASS_ATTRS: [&str; 11] = [
     "mixmc.version",
     COMMAND_ATTR,
     INPUT_COMMANDS_ATTR,
+    SUMMED_ATTRS[0],
+    SUMMED_ATTRS[1],
+    MEAN_ATTRS[0],
+    MEAN_ATTRS[1],
+    MEAN_ATTRS[2],
 ];
+
+/// Per-pass counts that add up in a merge: MMLT's mutations per pixel and the chains' seconds.
+const SUMMED_ATTRS: [&str; 2] = ["mixmc.mutations_per_pixel", "mixmc.chain_seconds"];
+
+/// Per-pass statistics of MMLT: each pass estimates its own normalisation b (one number, and one
+/// per depth) and has its own acceptance rate. Passes with different b are still an unbiased
+/// average (each is b_i times its histogram), so they merge; the merged file records their means
+/// weighted as the pixels are, by mutations.
+const MEAN_ATTRS: [&str; 3] = ["mixmc.b", "mixmc.b_depth", "mixmc.acceptance"];
 
 /// Header key of a merged file's input command lines, one a line, in input order.
 pub const INPUT_COMMANDS_ATTR: &str = "mixmc.input_commands";
@@ -79,8 +93,18 @@ fn seeds(img: &ExrImage) -> Option<Vec<String>> {
     )
 }
 
+/// Whether a file's header says its render was interrupted (`mixmc.partial = true`).
+pub fn is_partial(img: &ExrImage) -> bool {
+    img.text_attr("mixmc.partial").as_deref() == Some("true")
+}
+
 /// Merge images read from `paths` (same order); errors name the file that does not fit the first.
-pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
+///
+/// A partial input (an interrupted render: its header's sample count is what it really rendered,
+/// so its weight is right) is refused unless `allow_partial`: in a pipeline of jobs a partial
+/// file is the trace of a killed job that must be re-run, and a merge that took it would pass a
+/// smaller render off as the one that was asked for. Allowed, the output is marked partial too.
+pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrImage> {
     let [(first_path, first), rest @ ..] = inputs else {
         return Err(Error::new("nothing to merge"));
     };
@@ -96,6 +120,13 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
     let mut seen_seeds: Vec<(String, &Path)> = Vec::new();
     for (path, img) in inputs {
         let fail = |msg: String| Err(Error::in_file(path, msg));
+        if !allow_partial && is_partial(img) {
+            return fail(
+                "a partial render (mixmc.partial = true: it was interrupted); re-render it, or \
+                 merge it as partial with --allow-partial"
+                    .into(),
+            );
+        }
         if (img.width, img.height) != (first.width, first.height) {
             return fail(format!(
                 "resolution {}×{} differs from {}×{} of {}",
@@ -226,6 +257,13 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
             .filter_map(|(_, i)| i.float_attr("mixmc.seconds"))
             .sum(),
     );
+    for key in SUMMED_ATTRS {
+        let ones = vec![1.0; inputs.len()];
+        set_combined(&mut out, key, inputs, &ones, false);
+    }
+    for key in MEAN_ATTRS {
+        set_combined(&mut out, key, inputs, &weights, true);
+    }
     // Ray counts only where every input has them: a partial sum would pass for the whole.
     out.attributes.remove(raycount::CLOSEST_ATTR);
     out.attributes.remove(raycount::SHADOW_ATTR);
@@ -236,11 +274,59 @@ pub fn merge(inputs: &[(&Path, ExrImage)]) -> Result<ExrImage> {
     if let Some(rays) = rays {
         rays.into_iter().sum::<RayCounts>().write_to(&mut out);
     }
-    let partial = inputs
-        .iter()
-        .any(|(_, i)| i.text_attr("mixmc.partial").as_deref() == Some("true"));
+    let partial = inputs.iter().any(|(_, i)| is_partial(i));
     out.set_text("mixmc.partial", if partial { "true" } else { "false" });
     Ok(out)
+}
+
+/// Set `key` in `out` to the inputs' values combined: `Σ w_i·v_i` (`mean`: divided by `Σ w_i`),
+/// element by element for a text of numbers (MMLT's b per depth). Only where every input has it
+/// with the same number of values; otherwise the key is left out, so that no part passes for all.
+fn set_combined(
+    out: &mut ExrImage,
+    key: &str,
+    inputs: &[(&Path, ExrImage)],
+    weights: &[f64],
+    mean: bool,
+) {
+    out.attributes.remove(key);
+    let numbers = |img: &ExrImage| -> Option<(bool, Vec<f64>)> {
+        match img.attributes.get(key)? {
+            Attr::Float(f) => Some((false, vec![*f])),
+            Attr::Text(t) => {
+                let v: Option<Vec<f64>> = t.split_whitespace().map(|x| x.parse().ok()).collect();
+                Some((true, v?))
+            }
+        }
+    };
+    let Some(values) = inputs
+        .iter()
+        .map(|(_, img)| numbers(img))
+        .collect::<Option<Vec<_>>>()
+    else {
+        return;
+    };
+    let (text, len) = (values[0].0, values[0].1.len());
+    if values.iter().any(|(t, v)| *t != text || v.len() != len) {
+        return;
+    }
+    let total: f64 = if mean { weights.iter().sum() } else { 1.0 };
+    let combined: Vec<f64> = (0..len)
+        .map(|i| {
+            values
+                .iter()
+                .zip(weights)
+                .map(|((_, v), w)| w * v[i])
+                .sum::<f64>()
+                / total
+        })
+        .collect();
+    if text {
+        let words: Vec<String> = combined.iter().map(|v| format!("{v:e}")).collect();
+        out.set_text(key, words.join(" "));
+    } else {
+        out.set_float(key, combined[0]);
+    }
 }
 
 /// Two renders name their scene as they were given it, relative to their own working

@@ -25,17 +25,23 @@ struct Args {
     /// Store the channels as 16-bit half floats (references: half the size, ~3 decimal digits).
     #[arg(long)]
     half: bool,
+    /// Merge interrupted renders (mixmc.partial = true) too, marking the output partial; without
+    /// it they are refused, since a killed job's file must be re-rendered, not passed as whole.
+    #[arg(long)]
+    allow_partial: bool,
 }
 
 fn main() -> ExitCode {
     main_with("mixmc-merge", || {
         let args = Args::parse();
+        // The output is checked before any pixel is read.
+        mixmc::output::check_writable(&args.output)?;
         let images = args
             .inputs
             .iter()
             .map(|p| ExrImage::read(p).map(|img| (p.as_path(), img)))
             .collect::<mixmc::Result<Vec<_>>>()?;
-        let mut out = merge(&images)?;
+        let mut out = merge(&images, args.allow_partial)?;
         out.set_text(COMMAND_ATTR, command_line());
         let key = weight_attr(&out.text_attr("mixmc.tool").unwrap_or_default());
         let summary = format!(

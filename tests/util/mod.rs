@@ -69,6 +69,25 @@ pub fn python() -> PathBuf {
 
 // ---- Helpers for the cross-checks against other tools (tests/mitsuba.rs) ----
 
+/// DESIGN §6's agreement of two estimates of one image (`tools/compare_images.py`): image means
+/// within 1% and every 32×32 block within 3%, for beauty, direct and indirect.
+pub fn assert_agree(image: &Path, reference: &Path, what: &str) {
+    for prefix in [None, Some("direct"), Some("indirect")] {
+        let mut cmd = python_tool("compare_images.py");
+        cmd.arg(image).arg(reference);
+        if let Some(p) = prefix {
+            cmd.args(["--prefix", p]);
+        }
+        let out = cmd_output(&mut cmd);
+        assert!(
+            out.status.success(),
+            "{what} ({}) disagrees:\n{}",
+            prefix.unwrap_or("beauty"),
+            show(&out)
+        );
+    }
+}
+
 pub const OMC: &str = env!("CARGO_BIN_EXE_mixmc-omc");
 pub const SCENE: &str = env!("CARGO_BIN_EXE_mixmc-scene");
 

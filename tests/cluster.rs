@@ -241,6 +241,8 @@ fn kill_when_running(target: PathBuf, how: Kill) -> std::thread::JoinHandle<bool
             if let Some(&pid) = renderers_of(&target).first() {
                 std::thread::sleep(Duration::from_millis(300));
                 return match how {
+                    // SAFETY: kill(2) takes plain integers; the PID is a renderer this test's
+                    // Snakemake started, seen running a moment ago.
                     Kill::Process => unsafe { libc::kill(pid, libc::SIGTERM) == 0 },
                     Kill::Scancel => {
                         let environ =
@@ -371,23 +373,5 @@ fn above_the_switch_the_workflow_gives_direct_plus_mcmc() {
         read(&out.join("mcmc.exr")),
         read(&out.join("final.exr")),
     );
-    for (c, d) in ["R", "G", "B"]
-        .iter()
-        .zip(["direct.R", "direct.G", "direct.B"])
-    {
-        let expect: Vec<f32> = omc
-            .require(d)
-            .unwrap()
-            .iter()
-            .zip(mcmc.require(c).unwrap())
-            .map(|(a, b)| a + b)
-            .collect();
-        let got = fin.require(c).unwrap();
-        let differ = got
-            .iter()
-            .zip(&expect)
-            .filter(|(x, y)| x.to_bits() != y.to_bits())
-            .count();
-        assert_eq!(differ, 0, "{differ} pixels of {c} are not D + I_mcmc");
-    }
+    util::assert_direct_plus_mcmc(&omc, &mcmc, &fin);
 }

@@ -118,21 +118,7 @@ fn above_the_switch_the_image_is_direct_plus_unmasked_mmlt() {
     assert!(mask.require("alpha").unwrap().iter().all(|&a| a == 1.0));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
-    for (c, d) in ["R", "G", "B"]
-        .iter()
-        .zip(["direct.R", "direct.G", "direct.B"])
-    {
-        let expect: Vec<f32> = omc
-            .require(d)
-            .unwrap()
-            .iter()
-            .zip(mcmc.require(c).unwrap())
-            .map(|(a, b)| a + b)
-            .collect();
-        let got = fin.require(c).unwrap();
-        let differ = got.iter().zip(&expect).filter(|(x, y)| x != y).count();
-        assert_eq!(differ, 0, "{differ} pixels of {c} are not D + I_mcmc");
-    }
+    util::assert_direct_plus_mcmc(&omc, &mcmc, &fin);
 }
 
 #[test]

@@ -29,6 +29,34 @@ pub fn bin(name: &str) -> PathBuf {
     PathBuf::from(exe)
 }
 
+/// Above the MCMC-only switch the final image is D_omc + I_mcmc, bit for bit (DESIGN §5: α ≡ 1,
+/// eq. (2) with nothing of I_omc left).
+pub fn assert_direct_plus_mcmc(
+    omc: &mixmc::exrio::ExrImage,
+    mcmc: &mixmc::exrio::ExrImage,
+    fin: &mixmc::exrio::ExrImage,
+) {
+    for (c, d) in ["R", "G", "B"]
+        .iter()
+        .zip(["direct.R", "direct.G", "direct.B"])
+    {
+        let expect: Vec<f32> = omc
+            .require(d)
+            .unwrap()
+            .iter()
+            .zip(mcmc.require(c).unwrap())
+            .map(|(a, b)| a + b)
+            .collect();
+        let got = fin.require(c).unwrap();
+        let differ = got
+            .iter()
+            .zip(&expect)
+            .filter(|(x, y)| x.to_bits() != y.to_bits())
+            .count();
+        assert_eq!(differ, 0, "{differ} pixels of {c} are not D + I_mcmc");
+    }
+}
+
 /// Run a binary to completion.
 pub fn run(name: &str, args: &[&str]) -> Output {
     Command::new(bin(name))

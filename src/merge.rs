@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::exrio::{Attr, ExrImage};
 use crate::raycount::{self, RayCounts};
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Channels that are deterministic per pixel (DESIGN §3).
 pub fn is_gbuffer(channel: &str) -> bool {
@@ -99,28 +99,78 @@ pub fn is_partial(img: &ExrImage) -> bool {
 }
 
 /// Merge images read from `paths` (same order); errors name the file that does not fit the first.
+/// The images are all in memory already; [`Merger`] takes them one at a time.
+pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrImage> {
+    let mut merger = Merger::new(allow_partial);
+    for (path, img) in inputs {
+        merger.add(path, img)?;
+    }
+    merger.finish()
+}
+
+/// A merge that takes its inputs one at a time, so that a merge of many passes holds one input,
+/// the G-buffer and the running sums in memory, not every input at once (a thousand 1080p passes
+/// are ~140 GB decoded; docs/cluster.md). The sums are those of [`merge`], in input order: the
+/// same pixels, bit for bit.
 ///
 /// A partial input (an interrupted render: its header's sample count is what it really rendered,
 /// so its weight is right) is refused unless `allow_partial`: in a pipeline of jobs a partial
 /// file is the trace of a killed job that must be re-run, and a merge that took it would pass a
 /// smaller render off as the one that was asked for. Allowed, the output is marked partial too.
-pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrImage> {
-    let [(first_path, first), rest @ ..] = inputs else {
-        return Err(Error::new("nothing to merge"));
-    };
-    let tool = first.text_attr("mixmc.tool").ok_or_else(|| {
-        Error::in_file(
-            first_path,
-            "no mixmc.tool in the header: cannot tell how its samples are counted",
-        )
-    })?;
-    let weight_key = weight_attr(&tool);
-    let names: BTreeSet<&str> = first.channels.iter().map(|(n, _)| n.as_str()).collect();
-    let mut weights = Vec::with_capacity(inputs.len());
-    let mut seen_seeds: Vec<(String, &Path)> = Vec::new();
-    for (path, img) in inputs {
+pub struct Merger {
+    allow_partial: bool,
+    /// The first input's header (no channels): what every other input must agree with.
+    first: Option<(PathBuf, ExrImage)>,
+    weight_key: &'static str,
+    /// The first input's channels in its order, each with its G-buffer data (copied, never
+    /// averaged) or the running sum `Σ n_i·x_i` of light.
+    channels: Vec<(String, Channel)>,
+    /// Every input's header (no channels), its path and weight.
+    inputs: Vec<(PathBuf, ExrImage, f64)>,
+    seen_seeds: Vec<(String, PathBuf)>,
+}
+
+enum Channel {
+    GBuffer(Vec<f32>),
+    Sum(Vec<f64>),
+}
+
+/// An image's header alone: what the merge keeps of every input.
+fn header_of(img: &ExrImage) -> ExrImage {
+    let mut header = ExrImage::new(img.width, img.height);
+    header.attributes = img.attributes.clone();
+    header
+}
+
+impl Merger {
+    pub fn new(allow_partial: bool) -> Merger {
+        Merger {
+            allow_partial,
+            first: None,
+            weight_key: "mixmc.spp",
+            channels: Vec::new(),
+            inputs: Vec::new(),
+            seen_seeds: Vec::new(),
+        }
+    }
+
+    /// Check that `img` is another independent pass of the first input's render and add it.
+    pub fn add(&mut self, path: &Path, img: &ExrImage) -> Result<()> {
         let fail = |msg: String| Err(Error::in_file(path, msg));
-        if !allow_partial && is_partial(img) {
+        if self.first.is_none() {
+            let tool = img.text_attr("mixmc.tool").ok_or_else(|| {
+                Error::in_file(
+                    path,
+                    "no mixmc.tool in the header: cannot tell how its samples are counted",
+                )
+            })?;
+            self.weight_key = weight_attr(&tool);
+            self.first = Some((path.to_path_buf(), header_of(img)));
+        }
+        let Some((first_path, first)) = &self.first else {
+            unreachable!("set above")
+        };
+        if !self.allow_partial && is_partial(img) {
             return fail(
                 "a partial render (mixmc.partial = true: it was interrupted); re-render it, or \
                  merge it as partial with --allow-partial"
@@ -137,14 +187,17 @@ pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrIma
                 first_path.display()
             ));
         }
-        let these: BTreeSet<&str> = img.channels.iter().map(|(n, _)| n.as_str()).collect();
-        if these != names {
-            let diff: Vec<&str> = these.symmetric_difference(&names).copied().collect();
-            return fail(format!(
-                "channel set differs from {} (in one only: {})",
-                first_path.display(),
-                diff.join(", ")
-            ));
+        if !self.channels.is_empty() {
+            let names: BTreeSet<&str> = self.channels.iter().map(|(n, _)| n.as_str()).collect();
+            let these: BTreeSet<&str> = img.channels.iter().map(|(n, _)| n.as_str()).collect();
+            if these != names {
+                let diff: Vec<&str> = these.symmetric_difference(&names).copied().collect();
+                return fail(format!(
+                    "channel set differs from {} (in one only: {})",
+                    first_path.display(),
+                    diff.join(", ")
+                ));
+            }
         }
         for key in first.attributes.keys().chain(img.attributes.keys()) {
             if key.starts_with("mixmc.") && !PER_PASS_ATTRS.contains(&key.as_str()) {
@@ -164,6 +217,7 @@ pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrIma
                 }
             }
         }
+        let weight_key = self.weight_key;
         let w = img
             .float_attr(weight_key)
             .filter(|w| w.is_finite() && *w > 0.0);
@@ -172,123 +226,132 @@ pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrIma
                 "no positive {weight_key} in the header: cannot weight its samples"
             ));
         };
-        weights.push(w);
         let Some(file_seeds) = seeds(img) else {
             return fail(
                 "no mixmc.seed in the header: cannot tell whether its passes are independent"
                     .into(),
             );
         };
+        let mut seen = self.seen_seeds.clone();
         for s in file_seeds {
-            if let Some((_, other)) = seen_seeds.iter().find(|(t, _)| *t == s) {
+            if let Some((_, other)) = seen.iter().find(|(t, _)| *t == s) {
                 return fail(format!(
                     "seed {s} was also used by {}: same seed, not independent passes",
                     other.display()
                 ));
             }
-            seen_seeds.push((s, path));
+            seen.push((s, path.to_path_buf()));
         }
-    }
-
-    let total: f64 = weights.iter().sum();
-    let mut out = ExrImage::new(first.width, first.height);
-    for (name, data) in &first.channels {
-        let merged = if is_gbuffer(name) {
-            for (path, img) in rest {
-                let other = img.require(name)?;
-                if let Some(p) = data
-                    .iter()
-                    .zip(other)
-                    .position(|(a, b)| a.to_bits() != b.to_bits())
+        // Every check of the header passed: now the pixels.
+        if self.channels.is_empty() {
+            for (name, data) in &img.channels {
+                let channel = if is_gbuffer(name) {
+                    Channel::GBuffer(data.clone())
+                } else {
+                    Channel::Sum(img.require(name)?.iter().map(|&x| w * x as f64).collect())
+                };
+                self.channels.push((name.clone(), channel));
+            }
+        } else {
+            for (name, channel) in &self.channels {
+                let data = img.require(name)?;
+                if let Channel::GBuffer(first_data) = channel
+                    && let Some(p) = first_data
+                        .iter()
+                        .zip(data)
+                        .position(|(a, b)| a.to_bits() != b.to_bits())
                 {
-                    return Err(Error::in_file(
-                        path,
-                        format!(
-                            "G-buffer channel {name} differs from {} at pixel ({}, {}): not the same view",
-                            first_path.display(),
-                            p % first.width,
-                            p / first.width
-                        ),
+                    return fail(format!(
+                        "G-buffer channel {name} differs from {} at pixel ({}, {}): not the same view",
+                        first_path.display(),
+                        p % first.width,
+                        p / first.width
                     ));
                 }
             }
-            data.clone()
-        } else {
-            let channels: Vec<&[f32]> = inputs
-                .iter()
-                .map(|(_, img)| img.require(name))
-                .collect::<Result<_>>()?;
-            (0..data.len())
-                .map(|p| {
-                    let sum: f64 = channels
-                        .iter()
-                        .zip(&weights)
-                        .map(|(c, w)| w * c[p] as f64)
-                        .sum();
-                    (sum / total) as f32
-                })
-                .collect()
+            for (name, channel) in &mut self.channels {
+                if let Channel::Sum(sum) = channel {
+                    let data = img.require(name)?;
+                    sum.iter_mut()
+                        .zip(data)
+                        .for_each(|(s, &x)| *s += w * x as f64);
+                }
+            }
+        }
+        self.seen_seeds = seen;
+        self.inputs.push((path.to_path_buf(), header_of(img), w));
+        Ok(())
+    }
+
+    /// The merged image: `Σ n_i·x_i / Σ n_i` per light channel, the G-buffer as it is, and the
+    /// header of the first input with the sums of counts and the lists of seeds and commands.
+    pub fn finish(self) -> Result<ExrImage> {
+        let Some((_, first)) = self.first else {
+            return Err(Error::new("nothing to merge"));
         };
-        out.add(name, merged);
+        let headers: Vec<&ExrImage> = self.inputs.iter().map(|(_, h, _)| h).collect();
+        let weights: Vec<f64> = self.inputs.iter().map(|(_, _, w)| *w).collect();
+        let total: f64 = weights.iter().sum();
+        let weight_key = self.weight_key;
+        let mut out = ExrImage::new(first.width, first.height);
+        for (name, channel) in self.channels {
+            let data = match channel {
+                Channel::GBuffer(data) => data,
+                Channel::Sum(sum) => sum.into_iter().map(|s| (s / total) as f32).collect(),
+            };
+            out.add(&name, data);
+        }
+        out.attributes = first.attributes;
+        out.attributes.remove(COMMAND_ATTR);
+        out.set_text(
+            INPUT_COMMANDS_ATTR,
+            headers
+                .iter()
+                .map(|h| render_commands(h))
+                .collect::<Vec<_>>()
+                .join("\n"),
+        );
+        out.set_float(weight_key, total);
+        out.set_text(
+            "mixmc.seed",
+            self.seen_seeds
+                .iter()
+                .map(|(s, _)| s.as_str())
+                .collect::<Vec<_>>()
+                .join(","),
+        );
+        out.set_float(
+            "mixmc.seconds",
+            headers
+                .iter()
+                .filter_map(|h| h.float_attr("mixmc.seconds"))
+                .sum(),
+        );
+        for key in SUMMED_ATTRS {
+            let ones = vec![1.0; headers.len()];
+            set_combined(&mut out, key, &headers, &ones, false);
+        }
+        for key in MEAN_ATTRS {
+            set_combined(&mut out, key, &headers, &weights, true);
+        }
+        // Ray counts only where every input has them: a partial sum would pass for the whole.
+        out.attributes.remove(raycount::CLOSEST_ATTR);
+        out.attributes.remove(raycount::SHADOW_ATTR);
+        let rays: Option<Vec<RayCounts>> =
+            headers.iter().map(|h| RayCounts::read_from(h)).collect();
+        if let Some(rays) = rays {
+            rays.into_iter().sum::<RayCounts>().write_to(&mut out);
+        }
+        let partial = headers.iter().any(|h| is_partial(h));
+        out.set_text("mixmc.partial", if partial { "true" } else { "false" });
+        Ok(out)
     }
-    out.attributes = first.attributes.clone();
-    out.attributes.remove(COMMAND_ATTR);
-    out.set_text(
-        INPUT_COMMANDS_ATTR,
-        inputs
-            .iter()
-            .map(|(_, img)| render_commands(img))
-            .collect::<Vec<_>>()
-            .join("\n"),
-    );
-    out.set_float(weight_key, total);
-    out.set_text(
-        "mixmc.seed",
-        seen_seeds
-            .iter()
-            .map(|(s, _)| s.as_str())
-            .collect::<Vec<_>>()
-            .join(","),
-    );
-    out.set_float(
-        "mixmc.seconds",
-        inputs
-            .iter()
-            .filter_map(|(_, i)| i.float_attr("mixmc.seconds"))
-            .sum(),
-    );
-    for key in SUMMED_ATTRS {
-        let ones = vec![1.0; inputs.len()];
-        set_combined(&mut out, key, inputs, &ones, false);
-    }
-    for key in MEAN_ATTRS {
-        set_combined(&mut out, key, inputs, &weights, true);
-    }
-    // Ray counts only where every input has them: a partial sum would pass for the whole.
-    out.attributes.remove(raycount::CLOSEST_ATTR);
-    out.attributes.remove(raycount::SHADOW_ATTR);
-    let rays: Option<Vec<RayCounts>> = inputs
-        .iter()
-        .map(|(_, i)| RayCounts::read_from(i))
-        .collect();
-    if let Some(rays) = rays {
-        rays.into_iter().sum::<RayCounts>().write_to(&mut out);
-    }
-    let partial = inputs.iter().any(|(_, i)| is_partial(i));
-    out.set_text("mixmc.partial", if partial { "true" } else { "false" });
-    Ok(out)
 }
 
 /// Set `key` in `out` to the inputs' values combined: `Σ w_i·v_i` (`mean`: divided by `Σ w_i`),
 /// element by element for a text of numbers (MMLT's b per depth). Only where every input has it
 /// with the same number of values; otherwise the key is left out, so that no part passes for all.
-fn set_combined(
-    out: &mut ExrImage,
-    key: &str,
-    inputs: &[(&Path, ExrImage)],
-    weights: &[f64],
-    mean: bool,
-) {
+fn set_combined(out: &mut ExrImage, key: &str, headers: &[&ExrImage], weights: &[f64], mean: bool) {
     out.attributes.remove(key);
     let numbers = |img: &ExrImage| -> Option<(bool, Vec<f64>)> {
         match img.attributes.get(key)? {
@@ -299,9 +362,9 @@ fn set_combined(
             }
         }
     };
-    let Some(values) = inputs
+    let Some(values) = headers
         .iter()
-        .map(|(_, img)| numbers(img))
+        .map(|img| numbers(img))
         .collect::<Option<Vec<_>>>()
     else {
         return;

@@ -4,7 +4,7 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::exrio::ExrImage;
-use mixmc::merge::{merge, weight_attr};
+use mixmc::merge::{Merger, weight_attr};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -36,18 +36,18 @@ fn main() -> ExitCode {
         let args = Args::parse();
         // The output is checked before any pixel is read.
         mixmc::output::check_writable(&args.output)?;
-        let images = args
-            .inputs
-            .iter()
-            .map(|p| ExrImage::read(p).map(|img| (p.as_path(), img)))
-            .collect::<mixmc::Result<Vec<_>>>()?;
-        let mut out = merge(&images, args.allow_partial)?;
+        // One input at a time: memory stays that of one input and the sums, whatever their number.
+        let mut merger = Merger::new(args.allow_partial);
+        for path in &args.inputs {
+            merger.add(path, &ExrImage::read(path)?)?;
+        }
+        let mut out = merger.finish()?;
         out.set_text(COMMAND_ATTR, command_line());
         let key = weight_attr(&out.text_attr("mixmc.tool").unwrap_or_default());
         let summary = format!(
             "{}: {} files, {key} {}, seeds {}",
             args.output.display(),
-            images.len(),
+            args.inputs.len(),
             out.float_attr(key).unwrap_or(0.0),
             out.text_attr("mixmc.seed").unwrap_or_default()
         );

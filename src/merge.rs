@@ -98,20 +98,10 @@ pub fn is_partial(img: &ExrImage) -> bool {
     img.text_attr("mixmc.partial").as_deref() == Some("true")
 }
 
-/// Merge images read from `paths` (same order); errors name the file that does not fit the first.
-/// The images are all in memory already; [`Merger`] takes them one at a time.
-pub fn merge(inputs: &[(&Path, ExrImage)], allow_partial: bool) -> Result<ExrImage> {
-    let mut merger = Merger::new(allow_partial);
-    for (path, img) in inputs {
-        merger.add(path, img)?;
-    }
-    merger.finish()
-}
-
-/// A merge that takes its inputs one at a time, so that a merge of many passes holds one input,
-/// the G-buffer and the running sums in memory, not every input at once (a thousand 1080p passes
-/// are ~140 GB decoded; docs/cluster.md). The sums are those of [`merge`], in input order: the
-/// same pixels, bit for bit.
+/// The merge, taking its inputs one at a time ([`Merger::add`], in order; errors name the first
+/// input that is unreadable or does not fit the first), so that a merge of many passes holds one
+/// input, the G-buffer and the running f64 sums in memory, never every input at once (a thousand
+/// 1080p passes are ~140 GB decoded; docs/cluster.md).
 ///
 /// A partial input (an interrupted render: its header's sample count is what it really rendered,
 /// so its weight is right) is refused unless `allow_partial`: in a pipeline of jobs a partial

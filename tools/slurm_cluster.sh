@@ -116,8 +116,11 @@ EOF
 }
 
 stop() {
-  if [[ -e $conf && $(head -1 "$conf") == "$marker $dir" ]]; then
-    scancel --full --quiet --user=root 2>/dev/null || true
+  # Jobs first (their steps end with slurmd), while slurmctld still answers: scancel would wait
+  # out its message timeout on a controller that is gone.
+  local ctld=$dir/run/slurmctld.pid
+  if [[ -e $conf && $(head -1 "$conf") == "$marker $dir" && -s $ctld ]] && kill -0 "$(<"$ctld")" 2>/dev/null; then
+    timeout 10 scancel --full --quiet --user=root 2>/dev/null || true
   fi
   stop_pid_file "$dir/run/slurmd.pid"
   stop_pid_file "$dir/run/slurmctld.pid"

@@ -25,6 +25,69 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     result
 }
 
+/// Refuse at once an output that could not be written, before any work is spent on it: a render
+/// that ran for hours and only then found its directory missing has lost that work (a cluster
+/// job too, and its retry would lose it again). It creates the same temporary file that
+/// [`write_atomic`] will (unnamed, so nothing is left behind; a named one, removed at once,
+/// where unnamed files are not supported) and refuses a directory where a file is asked for.
+/// The target itself is not touched: an existing output stays until the new one replaces it.
+pub fn check_writable(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        return Err(Error::in_file(path, "cannot write: is a directory"));
+    }
+    probe(target_dir(path), &temp_path(path), path)
+}
+
+/// Create (and drop) a temporary file in `dir`, unnamed or else named `tmp`; errors name `shown`.
+fn probe(dir: &Path, tmp: &Path, shown: &Path) -> Result<()> {
+    #[cfg(target_os = "linux")]
+    if open_unnamed(dir).is_ok() {
+        return Ok(());
+    }
+    let cannot = |e: std::io::Error| Error::in_file(shown, format!("cannot write: {e}"));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(tmp)
+        .map_err(cannot)?;
+    std::fs::remove_file(tmp).map_err(cannot)
+}
+
+/// [`check_writable`] for every output a tool was asked for (absent optional ones are skipped).
+pub fn check_all_writable<'a>(paths: impl IntoIterator<Item = Option<&'a PathBuf>>) -> Result<()> {
+    paths
+        .into_iter()
+        .flatten()
+        .try_for_each(|p| check_writable(p))
+}
+
+/// An output directory (`--keep`, `--inspect`, `mixmc-study -o`): created if missing, then checked
+/// as [`check_writable`] checks a file's, before any work is done for it.
+pub fn prepare_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::in_file(dir, format!("cannot create: {e}")))?;
+    probe(dir, &temp_path(&dir.join("check")), dir)
+}
+
+/// The directory a file is written in (`.` for a bare name).
+fn target_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// An unnamed file in `dir`, freed by the kernel when closed unless it is linked to a name.
+#[cfg(target_os = "linux")]
+fn open_unnamed(dir: &Path) -> std::io::Result<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(libc::O_TMPFILE)
+        .mode(0o666)
+        .open(dir)
+}
+
 /// Write into an unnamed file in the target's directory and, once `write` succeeded, name it
 /// `tmp`. Hands `write` back where the system or filesystem has no unnamed files.
 #[cfg(target_os = "linux")]
@@ -36,18 +99,7 @@ fn write_unnamed<W: FnOnce(&Path) -> Result<()>>(
     use std::ffi::CString;
     use std::os::fd::AsRawFd;
     use std::os::unix::ffi::OsStrExt;
-    use std::os::unix::fs::OpenOptionsExt;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let Ok(file) = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .custom_flags(libc::O_TMPFILE)
-        .mode(0o666)
-        .open(dir)
-    else {
+    let Ok(file) = open_unnamed(target_dir(path)) else {
         return Err(write);
     };
     let fd_path = PathBuf::from(format!("/proc/self/fd/{}", file.as_raw_fd()));
@@ -118,6 +170,22 @@ mod tests {
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         write_bytes(&target, b"new").unwrap();
         assert_eq!(std::fs::read_to_string(&target).unwrap(), "new");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn check_writable_refuses_missing_dirs_and_directories_and_leaves_nothing() {
+        let dir = std::env::temp_dir().join(format!("mixmc-check-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        check_writable(&dir.join("a.exr")).unwrap();
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        let missing = check_writable(&dir.join("no/such/a.exr")).unwrap_err();
+        assert!(missing.to_string().contains("cannot write"), "{missing}");
+        let is_dir = check_writable(&dir).unwrap_err();
+        assert!(is_dir.to_string().contains("is a directory"), "{is_dir}");
+        prepare_dir(&dir.join("made")).unwrap();
+        assert!(dir.join("made").is_dir());
+        assert_eq!(std::fs::read_dir(dir.join("made")).unwrap().count(), 0);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -58,6 +58,13 @@ fn broken_exrs_fail_in_every_tool_that_reads_exrs() {
     let good = bad("aov-8x8.exr");
     let mask = bad("mask-8x8.exr");
     let scene = bad("scene-8x8.json");
+    // The merge reads its inputs in turn and stops at the first that is unreadable or does not
+    // fit: a render of its own goes first, so that the broken file is what it names.
+    let tmp = TempDir::new("bad-broken-pass");
+    let pass = tmp.join("pass.exr");
+    let pass = pass.to_str().unwrap();
+    let render = [scene, "-o", pass, "--spp", "1", "-q", "--threads", "1"];
+    assert!(tool("mixmc-omc", &render, &[]).status.success());
     for (name, needle) in cases {
         let f = bad(name);
         expect_error("mixmc-mask", &[f, "--threads", "1"], &[], f, needle);
@@ -75,7 +82,8 @@ fn broken_exrs_fail_in_every_tool_that_reads_exrs() {
         composite(good, mask, f);
         expect_error("mixmc-diff", &[f, good], &[], f, needle);
         expect_error("mixmc-diff", &[good, f], &[], f, needle);
-        expect_error("mixmc-merge", &[good, f], &[], f, needle);
+        expect_error("mixmc-merge", &[f, pass], &[], f, needle);
+        expect_error("mixmc-merge", &[pass, f], &[], f, needle);
         let mmlt = [scene, "--mask", f, "--spp", "1", "--bootstrap", "10"];
         expect_error(
             "mixmc-mmlt",
@@ -341,4 +349,124 @@ fn the_mask_goes_on_past_non_finite_light_and_integer_ids() {
     let (ids, _) = mask(Path::new(&bad("u32-matid.exr")), "u32-mask.exr");
     let (floats, _) = mask(Path::new(&bad("aov-8x8.exr")), "float-mask.exr");
     assert_eq!(ids, floats);
+}
+
+#[test]
+fn merge_refuses_a_partial_pass_and_a_pass_merged_twice() {
+    let tmp = TempDir::new("bad-merge-partial");
+    let pass = |seed: &str| {
+        let out = tmp.join(&format!("pass-{seed}.exr"));
+        let args = [bad("scene-8x8.json"), "-o", out.to_str().unwrap()];
+        let rest = ["--spp", "2", "--seed", seed, "-q"];
+        let run = tool("mixmc-omc", &[&args[..], &rest, &THREADS].concat(), &[]);
+        assert!(run.status.success(), "{}", util::show(&run));
+        out
+    };
+    let (a, b) = (pass("1"), pass("2"));
+    // What a renderer killed mid-pass writes: its real sample count, marked partial.
+    let partial = tmp.join("partial.exr");
+    let mut img = ExrImage::read(&b).unwrap();
+    img.set_text("mixmc.partial", "true");
+    img.write(&partial, false).unwrap();
+    let merged = tmp.join("merged.exr");
+    let (a, b, partial) = (
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        partial.to_str().unwrap(),
+    );
+    let m = merged.to_str().unwrap();
+    let out = tool("mixmc-merge", &[a, partial, "-o", m], &[]);
+    let err = assert_one_line_error("mixmc-merge", &out, &["partial", "--allow-partial"]);
+    assert!(
+        err.starts_with(&format!("mixmc-merge: {partial}: ")),
+        "{err}"
+    );
+    assert!(!merged.exists(), "{err}");
+    // Asked for, it is merged and the result says it is partial.
+    let out = tool(
+        "mixmc-merge",
+        &[a, partial, "-o", m, "--allow-partial"],
+        &[],
+    );
+    assert!(out.status.success(), "{}", util::show(&out));
+    let img = ExrImage::read(&merged).unwrap();
+    assert_eq!(img.text_attr("mixmc.partial").as_deref(), Some("true"));
+    // The same pass twice, or inside a merge of it, is not an independent pass.
+    let out = tool("mixmc-merge", &[a, b, a, "-o", m], &[]);
+    assert_one_line_error("mixmc-merge", &out, &["seed 1 was also used by"]);
+    let out = tool("mixmc-merge", &[a, b, "-o", m], &[]);
+    assert!(out.status.success(), "{}", util::show(&out));
+    let again = tmp.join("again.exr");
+    let out = tool("mixmc-merge", &[m, b, "-o", again.to_str().unwrap()], &[]);
+    assert_one_line_error("mixmc-merge", &out, &["seed 2 was also used by"]);
+}
+
+/// Every output a tool is asked for is checked before any work is done: an unwritable one is a
+/// one-line error at once, never after the render it would lose. The budgets here would take
+/// many minutes, so a tool that rendered first would not end within the bound.
+#[test]
+fn unwritable_outputs_are_refused_before_rendering_or_reading() {
+    let tmp = TempDir::new("bad-unwritable");
+    let scene = fixture("scenes/cornell-torus-tiny.json");
+    let good = tmp.join("good.exr");
+    let good = good.to_str().unwrap();
+    let missing = "/no/such/dir/out.exr";
+    let png = "/no/such/dir/out.png";
+    let is_dir = tmp.path().to_str().unwrap();
+    let aov = bad("aov-8x8.exr");
+    // A directory under a plain file cannot be made, not even by root (CI runs as root).
+    let plain = tmp.join("plain");
+    std::fs::write(&plain, "").unwrap();
+    let keep = plain.join("keep");
+    let keep = keep.to_str().unwrap();
+    let cases: Vec<(&str, Vec<&str>, &str)> = vec![
+        (
+            "mixmc-omc",
+            vec![&scene, "--spp", "100000", "-o", missing],
+            missing,
+        ),
+        (
+            "mixmc-omc",
+            vec![&scene, "--time", "600", "-o", good, "--png", png],
+            png,
+        ),
+        (
+            "mixmc-omc",
+            vec![&scene, "--spp", "100000", "-o", is_dir],
+            is_dir,
+        ),
+        (
+            "mixmc-mmlt",
+            vec![&scene, "--mutations-per-pixel", "100000", "-o", missing],
+            missing,
+        ),
+        (
+            "mixmc-mix",
+            vec![&scene, "--time", "600", "-o", missing],
+            missing,
+        ),
+        (
+            "mixmc-mix",
+            vec![&scene, "--time", "600", "-o", good, "--keep", keep],
+            keep,
+        ),
+        ("mixmc-mask", vec![aov, "-o", missing], missing),
+        ("mixmc-merge", vec![aov, "-o", missing], missing),
+        ("mixmc-diff", vec![aov, aov, "--heatmap", png], png),
+    ];
+    for (name, args, file) in cases {
+        let start = std::time::Instant::now();
+        let out = tool(name, &args, &[]);
+        let what = format!("{name} {args:?}");
+        let err = assert_one_line_error(name, &out, &["cannot"]);
+        assert!(
+            err.starts_with(&format!("{name}: {file}: ")),
+            "{what}: {err}"
+        );
+        assert!(
+            start.elapsed().as_secs() < 30,
+            "{what}: rendered before refusing"
+        );
+        assert!(!Path::new(good).exists(), "{what}: wrote {good}");
+    }
 }

@@ -45,24 +45,6 @@ fn render(
     out
 }
 
-/// Image means within 1% and every 32×32 block within 3%, for beauty, direct and indirect.
-fn assert_agree(image: &Path, reference: &Path, what: &str) {
-    for prefix in [None, Some("direct"), Some("indirect")] {
-        let mut cmd = python_tool("compare_images.py");
-        cmd.arg(image).arg(reference);
-        if let Some(p) = prefix {
-            cmd.args(["--prefix", p]);
-        }
-        let out = cmd_output(&mut cmd);
-        assert!(
-            out.status.success(),
-            "{what} ({}) disagrees:\n{}",
-            prefix.unwrap_or("beauty"),
-            show(&out)
-        );
-    }
-}
-
 fn agree_on(scene_file: &str, name: &str, spp: [&str; 4]) {
     let _machine = machine();
     let dir = TempDir::new(name);

@@ -156,15 +156,7 @@ fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmaske
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
     assert_eq!(mcmc.float_attr("mixmc.min_depth"), Some(2.0));
-    let expect: Vec<Vec<f32>> = ["direct.R", "direct.G", "direct.B"]
-        .iter()
-        .zip(rgb(&mcmc))
-        .map(|(d, m)| {
-            let d = omc.require(d).unwrap();
-            d.iter().zip(&m).map(|(a, b)| a + b).collect()
-        })
-        .collect();
-    assert_eq!(differ(&rgb(&fin), &expect), 0, "not D + I_mcmc");
+    util::assert_direct_plus_mcmc(&omc, &mcmc, &fin);
 }
 
 #[test]

@@ -52,6 +52,8 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         mixmc::cli::check_switch(args.switch)?;
+        // The outputs are checked before any work: a render must not be lost to its output.
+        mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;

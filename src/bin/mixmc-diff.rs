@@ -51,6 +51,8 @@ fn main() -> ExitCode {
         if args.fail.is_nan() {
             return Err(Error::new("--fail must be a number"));
         }
+        // The heat map's file is checked before any pixel is read.
+        mixmc::output::check_all_writable([args.heatmap.as_ref()])?;
         let image = ExrImage::read(&args.image)?;
         let reference = ExrImage::read(&args.reference)?;
         if (image.width, image.height) != (reference.width, reference.height) {

@@ -147,6 +147,11 @@ fn main() -> ExitCode {
         let args = Args::parse();
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
+        // The outputs are checked before any pixel is read.
+        mixmc::output::check_writable(&args.output)?;
+        if let Some(dir) = &args.inspect {
+            mixmc::output::prepare_dir(dir)?;
+        }
         let src = args.layout.open(&args.inputs)?;
         let input_path = &args.inputs[0];
         let (fov_y, fov_source) = fov(&args, &src);

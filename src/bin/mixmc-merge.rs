@@ -4,7 +4,7 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, main_with};
 use mixmc::exrio::ExrImage;
-use mixmc::merge::{merge, weight_attr};
+use mixmc::merge::{Merger, weight_attr};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -25,23 +25,29 @@ struct Args {
     /// Store the channels as 16-bit half floats (references: half the size, ~3 decimal digits).
     #[arg(long)]
     half: bool,
+    /// Merge interrupted renders (mixmc.partial = true) too, marking the output partial; without
+    /// it they are refused, since a killed job's file must be re-rendered, not passed as whole.
+    #[arg(long)]
+    allow_partial: bool,
 }
 
 fn main() -> ExitCode {
     main_with("mixmc-merge", || {
         let args = Args::parse();
-        let images = args
-            .inputs
-            .iter()
-            .map(|p| ExrImage::read(p).map(|img| (p.as_path(), img)))
-            .collect::<mixmc::Result<Vec<_>>>()?;
-        let mut out = merge(&images)?;
+        // The output is checked before any pixel is read.
+        mixmc::output::check_writable(&args.output)?;
+        // One input at a time: memory stays that of one input and the sums, whatever their number.
+        let mut merger = Merger::new(args.allow_partial);
+        for path in &args.inputs {
+            merger.add(path, &ExrImage::read(path)?)?;
+        }
+        let mut out = merger.finish()?;
         out.set_text(COMMAND_ATTR, command_line());
         let key = weight_attr(&out.text_attr("mixmc.tool").unwrap_or_default());
         let summary = format!(
             "{}: {} files, {key} {}, seeds {}",
             args.output.display(),
-            images.len(),
+            args.inputs.len(),
             out.float_attr(key).unwrap_or(0.0),
             out.text_attr("mixmc.seed").unwrap_or_default()
         );

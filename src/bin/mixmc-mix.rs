@@ -88,6 +88,11 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         check_switch(args.switch)?;
+        // The outputs are checked before any work: the job must not be lost to its output.
+        mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
+        if let Some(dir) = &args.keep {
+            mixmc::output::prepare_dir(dir)?;
+        }
         if args.mask_spp == 0 || args.chains == 0 || args.bootstrap == 0 {
             return Err(Error::new(
                 "--mask-spp, --chains and --bootstrap must be at least 1",
@@ -112,9 +117,6 @@ fn main() -> ExitCode {
             fxaa: !args.no_fxaa,
             quiet: args.quiet,
         };
-        if let Some(dir) = &args.keep {
-            std::fs::create_dir_all(dir).map_err(|e| Error::in_file(dir, e.to_string()))?;
-        }
         mixmc::signal::install();
         let dir = args.keep.clone().unwrap_or_default();
         let mut m = mix(&scene, &settings, &dir)?;

@@ -41,6 +41,8 @@ fn main() -> ExitCode {
         let args = Args::parse();
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { args.render.init_threads() }?;
+        // The outputs are checked before any work: a render must not be lost to its output.
+        mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
         let scene = Scene::load(&args.scene)?;
         let settings = OmcSettings {
             method: args.method,

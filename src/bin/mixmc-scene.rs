@@ -156,6 +156,7 @@ fn main() -> ExitCode {
                 output,
                 kind,
             } => {
+                mixmc::output::check_writable(&output)?;
                 let s = Scene::load(&scene)?;
                 s.print_warnings("mixmc-scene");
                 let rgb = preview(&s, kind);
@@ -163,6 +164,7 @@ fn main() -> ExitCode {
                 println!("{}", output.display());
             }
             Command::Export { scene, mitsuba } => {
+                mixmc::output::prepare_dir(&mitsuba)?;
                 let s = Scene::load(&scene)?;
                 s.print_warnings("mixmc-scene");
                 export_mitsuba(&s, &mitsuba)?;

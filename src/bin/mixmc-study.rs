@@ -192,8 +192,8 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         let plan = args.plan()?;
-        std::fs::create_dir_all(&args.output)
-            .map_err(|e| Error::in_file(&args.output, e.to_string()))?;
+        // Created and checked before the first render: hours of renders must not be lost to it.
+        mixmc::output::prepare_dir(&args.output)?;
         mixmc::signal::install();
         let res = run(&plan, args.quiet)?;
         let command = mixmc::cli::command_line();

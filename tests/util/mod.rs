@@ -29,6 +29,34 @@ pub fn bin(name: &str) -> PathBuf {
     PathBuf::from(exe)
 }
 
+/// Above the MCMC-only switch the final image is D_omc + I_mcmc, bit for bit (DESIGN §5: α ≡ 1,
+/// eq. (2) with nothing of I_omc left).
+pub fn assert_direct_plus_mcmc(
+    omc: &mixmc::exrio::ExrImage,
+    mcmc: &mixmc::exrio::ExrImage,
+    fin: &mixmc::exrio::ExrImage,
+) {
+    for (c, d) in ["R", "G", "B"]
+        .iter()
+        .zip(["direct.R", "direct.G", "direct.B"])
+    {
+        let expect: Vec<f32> = omc
+            .require(d)
+            .unwrap()
+            .iter()
+            .zip(mcmc.require(c).unwrap())
+            .map(|(a, b)| a + b)
+            .collect();
+        let got = fin.require(c).unwrap();
+        let differ = got
+            .iter()
+            .zip(&expect)
+            .filter(|(x, y)| x.to_bits() != y.to_bits())
+            .count();
+        assert_eq!(differ, 0, "{differ} pixels of {c} are not D + I_mcmc");
+    }
+}
+
 /// Run a binary to completion.
 pub fn run(name: &str, args: &[&str]) -> Output {
     Command::new(bin(name))
@@ -68,6 +96,25 @@ pub fn python() -> PathBuf {
 }
 
 // ---- Helpers for the cross-checks against other tools (tests/mitsuba.rs) ----
+
+/// DESIGN §6's agreement of two estimates of one image (`tools/compare_images.py`): image means
+/// within 1% and every 32×32 block within 3%, for beauty, direct and indirect.
+pub fn assert_agree(image: &Path, reference: &Path, what: &str) {
+    for prefix in [None, Some("direct"), Some("indirect")] {
+        let mut cmd = python_tool("compare_images.py");
+        cmd.arg(image).arg(reference);
+        if let Some(p) = prefix {
+            cmd.args(["--prefix", p]);
+        }
+        let out = cmd_output(&mut cmd);
+        assert!(
+            out.status.success(),
+            "{what} ({}) disagrees:\n{}",
+            prefix.unwrap_or("beauty"),
+            show(&out)
+        );
+    }
+}
 
 pub const OMC: &str = env!("CARGO_BIN_EXE_mixmc-omc");
 pub const SCENE: &str = env!("CARGO_BIN_EXE_mixmc-scene");

@@ -448,7 +448,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         .split
         .mcmc_share(if switched { 1.0 } else { complex_fraction });
     let choice = if omc.even.partial {
-        Choice::Mix { mcmc_seconds: 0.0 }
+        // Interrupted: what exists is the OMC image.
+        Choice::OmcOnly
     } else if !measured {
         // The fixed splits: OMC until its share is spent, then MMLT for the rest.
         let left = (1.0 - share) * s.seconds - job.start.elapsed().as_secs_f64();
@@ -458,13 +459,13 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         Choice::Mix {
             mcmc_seconds: job.left(),
         }
-    } else if complex_fraction == 0.0 && !switched {
-        // Nothing for MMLT to do beyond ε·I everywhere, which OMC renders better.
-        Choice::OmcOnly
     } else if switched {
         // The paper's switch: a short pilot cannot tell, as MMLT's error falls far faster than
-        // 1/t after its start-up while OMC's, where it fails, falls far slower (BENCHMARKS.md).
+        // 1/t after its start-up while OMC's, where it fails, falls far slower (docs/main-job.md).
         Choice::McmcOnly
+    } else if complex_fraction == 0.0 {
+        // Nothing for MMLT to do beyond ε·I everywhere, which OMC renders better.
+        Choice::OmcOnly
     } else {
         // MMLT's pilot: its start-up (bounded by half of what is left), then a share of rounds.
         mmlt_settings.budget = Budget::Seconds(0.5 * job.left().max(1e-3));

@@ -375,7 +375,8 @@ pub struct MmltRun<'a> {
 
 impl<'a> MmltRun<'a> {
     /// The start-up: each depth's b_d, the bootstrap and the chains' first states. `s.budget`
-    /// bounds the start-up's share ([`STARTUP_SHARE`]); `groups` is 1, or 2 for two halves.
+    /// bounds the start-up's share (a tenth of it for each phase); `groups` is 1, or 2 for two
+    /// halves.
     pub fn start(
         scene: &'a Scene,
         alpha: Option<&'a [f32]>,

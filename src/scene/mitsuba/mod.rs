@@ -52,9 +52,10 @@ pub fn from_text(text: &str, path: &Path) -> Result<Imported> {
 
 struct Loader<'a> {
     ids: HashMap<&'a str, &'a Node>,
-    materials: Vec<(String, MaterialDesc)>,
-    /// (bsdf's identity, emission's bits) → material name.
-    keys: HashMap<(String, Option<[u32; 3]>), String>,
+    /// Each material: the name it is based on (its BSDF's id), and whether it emits.
+    materials: Vec<(String, MaterialDesc, bool)>,
+    /// (bsdf's identity, emission's bits) → index in `materials`.
+    keys: HashMap<(String, Option<[u32; 3]>), usize>,
     /// Ids of the named BSDFs shapes use.
     used: HashSet<&'a str>,
     warnings: Vec<String>,
@@ -97,11 +98,7 @@ fn interpret(root: &Node) -> Result<Imported> {
             "integrator" => max_depth = integrator(c)?,
             "shape" => {
                 let (mesh, material) = l.shape(c)?;
-                objects.push(ObjectDesc::Obj {
-                    path: format!("{}.obj", meshes.len()),
-                    material,
-                    transform: None,
-                });
+                objects.push(material);
                 meshes.push(mesh);
             }
             // Named BSDFs are read where a shape refers to them.
@@ -126,16 +123,25 @@ fn interpret(root: &Node) -> Result<Imported> {
     for c in &root.children {
         if let ("bsdf", Some(id)) = (c.tag.as_str(), c.attr("id"))
             && !l.used.contains(id)
-            && !l.materials.iter().any(|(n, _)| n == id)
         {
             let m = bsdf::material(c, &|n| l.resolve(n))?;
-            l.materials.push((id.to_string(), m));
+            l.materials.push((id.to_string(), m, false));
         }
     }
-    let mut materials = BTreeMap::new();
-    for (name, m) in l.materials {
-        materials.insert(name, m);
-    }
+    let names = material_names(&l.materials);
+    let objects = objects
+        .iter()
+        .enumerate()
+        .map(|(k, &m)| ObjectDesc::Obj {
+            path: format!("{k}.obj"),
+            material: names[m].clone(),
+            transform: None,
+        })
+        .collect();
+    let materials: BTreeMap<String, MaterialDesc> = names
+        .into_iter()
+        .zip(l.materials.into_iter().map(|(_, m, _)| m))
+        .collect();
     Ok(Imported {
         desc: SceneDesc {
             camera,
@@ -349,7 +355,7 @@ impl<'a> Loader<'a> {
     }
 
     /// A shape's mesh and its material (created on first use).
-    fn shape(&mut self, node: &'a Node) -> Result<(Mesh, String)> {
+    fn shape(&mut self, node: &'a Node) -> Result<(Mesh, usize)> {
         let mut p = Params::new(node);
         let mesh = shapes::mesh(node, &mut p)?;
         let mut bsdf = None;
@@ -392,20 +398,44 @@ impl<'a> Loader<'a> {
             ),
         };
         let bits = emission.map(|e: [f32; 3]| e.map(f32::to_bits));
-        if let Some(name) = self.keys.get(&(key.clone(), bits)) {
-            return Ok((mesh, name.clone()));
-        }
-        let mut name = base.clone();
-        let mut k = 1;
-        while self.materials.iter().any(|(n, _)| *n == name) {
-            k += 1;
-            name = format!("{base}-{k}");
+        if let Some(&k) = self.keys.get(&(key.clone(), bits)) {
+            return Ok((mesh, k));
         }
         self.materials
-            .push((name.clone(), with_emission(mat, emission)));
-        self.keys.insert((key, bits), name.clone());
-        Ok((mesh, name))
+            .push((base, with_emission(mat, emission), emission.is_some()));
+        self.keys.insert((key, bits), self.materials.len() - 1);
+        Ok((mesh, self.materials.len() - 1))
     }
+}
+
+/// Material names: a BSDF's id (or `TYPE-lineN` for an anonymous one) when it makes one material;
+/// when emitters on some of its shapes make more, the plain one keeps the id and the emitting
+/// ones are `ID-emitter` (numbered from the second). Clashes get `-2`, `-3`, ….
+fn material_names(materials: &[(String, MaterialDesc, bool)]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::with_capacity(materials.len());
+    for (i, (base, _, emits)) in materials.iter().enumerate() {
+        let shared = materials.iter().filter(|(b, _, _)| b == base).count() > 1;
+        let mut name = if shared && *emits {
+            let nth = materials[..i]
+                .iter()
+                .filter(|(b, _, e)| b == base && *e)
+                .count();
+            match nth {
+                0 => format!("{base}-emitter"),
+                n => format!("{base}-emitter{}", n + 1),
+            }
+        } else {
+            base.clone()
+        };
+        let stem = name.clone();
+        let mut k = 1;
+        while names.contains(&name) {
+            k += 1;
+            name = format!("{stem}-{k}");
+        }
+        names.push(name);
+    }
+    names
 }
 
 /// An `area` emitter's radiance.

@@ -85,6 +85,7 @@ fn interpret(root: &Node) -> Result<Imported> {
     let mut max_depth = DEFAULT_MAX_DEPTH;
     let mut meshes = Vec::new();
     let mut objects = Vec::new();
+    let mut triangles = 0;
     for c in &root.children {
         match c.tag.as_str() {
             "sensor" => {
@@ -98,6 +99,16 @@ fn interpret(root: &Node) -> Result<Imported> {
             "integrator" => max_depth = integrator(c)?,
             "shape" => {
                 let (mesh, material) = l.shape(c)?;
+                // Checked shape by shape, so that a file of many spheres fails before it has
+                // taken all memory.
+                triangles += mesh.indices.len();
+                if triangles > crate::accel::MAX_TRIANGLES {
+                    return Err(c.err(format!(
+                        "the scene's shapes make more than the {} triangles the ray-query tree \
+                         can address",
+                        crate::accel::MAX_TRIANGLES
+                    )));
+                }
                 objects.push(material);
                 meshes.push(mesh);
             }
@@ -552,4 +563,181 @@ fn camera_from(t: &Node, m: &DMat4, fov_y: f32) -> Result<CameraDesc> {
         up: f(y),
         fov_y,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+
+    fn scene(body: &str, film: (u32, u32), sensor: &str) -> Result<Imported> {
+        let text = format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">{sensor}<film type=\"hdrfilm\">\
+             <integer name=\"width\" value=\"{}\"/><integer name=\"height\" value=\"{}\"/>\
+             <rfilter type=\"box\"/></film></sensor>\n{body}\n</scene>",
+            film.0, film.1
+        );
+        from_text(&text, Path::new("t.xml"))
+    }
+
+    fn material(bsdf: &str) -> Result<MaterialDesc> {
+        let s = scene(&format!("<shape type=\"cube\">{bsdf}</shape>"), (8, 8), "")?;
+        Ok(s.desc.materials.into_values().next().unwrap())
+    }
+
+    #[test]
+    fn fov_axis_follows_mitsuba() {
+        let fov_y = |axis: &str, w, h| {
+            let s = scene(
+                "",
+                (w, h),
+                &format!("<float name=\"fov\" value=\"60\"/>{axis}"),
+            )
+            .unwrap();
+            s.desc.camera.fov_y as f64
+        };
+        let t = (30f64.to_radians()).tan();
+        let deg = |x: f64| 2.0 * x.atan().to_degrees();
+        // Mitsuba's default axis is x: a 2:1 film gets half the tangent vertically.
+        assert!((fov_y("", 200, 100) - deg(t / 2.0)).abs() < 1e-4);
+        assert_eq!(
+            fov_y("<string name=\"fov_axis\" value=\"y\"/>", 200, 100),
+            60.0
+        );
+        // smaller = y for a wide film, x for a tall one; larger the other way.
+        assert_eq!(
+            fov_y("<string name=\"fov_axis\" value=\"smaller\"/>", 200, 100),
+            60.0
+        );
+        assert!(
+            (fov_y("<string name=\"fov_axis\" value=\"smaller\"/>", 100, 200) - deg(t * 2.0)).abs()
+                < 1e-4
+        );
+        assert!(
+            (fov_y("<string name=\"fov_axis\" value=\"larger\"/>", 200, 100) - deg(t / 2.0)).abs()
+                < 1e-4
+        );
+        // diagonal: the tangent of the half diagonal is t, so the vertical one is t·h/√(w²+h²).
+        let d = fov_y("<string name=\"fov_axis\" value=\"diagonal\"/>", 300, 400);
+        assert!((d - deg(t * 400.0 / 500.0)).abs() < 1e-4, "{d}");
+        assert!(
+            scene(
+                "",
+                (8, 8),
+                "<float name=\"fov\" value=\"60\"/><string name=\"fov_axis\" value=\"z\"/>"
+            )
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn camera_transforms() {
+        let s = scene(
+            "",
+            (8, 8),
+            "<transform name=\"to_world\"><rotate y=\"1\" angle=\"90\"/><translate value=\"1 2 3\"/></transform>",
+        )
+        .unwrap();
+        let c = s.desc.camera;
+        // Local +z turned 90° about y is +x.
+        assert!((Vec3::from(c.look_at) - Vec3::from(c.position) - Vec3::X).length() < 1e-6);
+        assert_eq!(c.position, [1.0, 2.0, 3.0]);
+        for bad in ["<scale value=\"2\"/>", "<scale x=\"-1\"/>"] {
+            let e = scene(
+                "",
+                (8, 8),
+                &format!("<transform name=\"to_world\">{bad}</transform>"),
+            )
+            .err()
+            .unwrap();
+            assert_eq!(e.file.as_deref(), Some("t.xml:2"), "{e}");
+        }
+    }
+
+    #[test]
+    fn bsdfs_map_onto_our_materials() {
+        let m = |b: &str| format!("{:?}", material(b).unwrap());
+        assert!(m("").contains("Diffuse { albedo: [0.5, 0.5, 0.5]"));
+        assert!(m("<bsdf type=\"twosided\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.1, 0.2, 0.3\"/></bsdf></bsdf>")
+            .contains("[0.1, 0.2, 0.3]"));
+        assert!(m("<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>")
+            .contains("ior: 1.333"));
+        // Default int_ior bk7 against air.
+        let g = m("<bsdf type=\"dielectric\"/>");
+        assert!(
+            g.contains(&format!("ior: {}", (1.5046f64 / 1.000277) as f32)),
+            "{g}"
+        );
+        assert!(m("<bsdf type=\"conductor\"/>").contains("Mirror { reflectance: [1.0, 1.0, 1.0]"));
+        let gold = m("<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>");
+        assert!(gold.contains("0.96"), "{gold}");
+        let eta_k = m(
+            "<bsdf type=\"conductor\"><rgb name=\"eta\" value=\"1.5\"/><rgb name=\"k\" value=\"0\"/></bsdf>",
+        );
+        assert!(eta_k.contains("0.04"), "{eta_k}");
+        assert!(m("<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.3\"/></bsdf>")
+            .contains("roughness: 0.3"));
+        for bad in [
+            "<bsdf type=\"plastic\"/>",
+            "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.2\"/></bsdf>",
+            "<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"unobtainium\"/></bsdf>",
+            "<bsdf type=\"conductor\"><string name=\"material\" value=\"Xx\"/></bsdf>",
+            "<bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/></bsdf>",
+            "<bsdf type=\"twosided\"><bsdf type=\"diffuse\"/><bsdf type=\"conductor\"/></bsdf>",
+        ] {
+            let e = material(bad)
+                .err()
+                .unwrap_or_else(|| panic!("{bad} accepted"));
+            assert_eq!(e.file.as_deref(), Some("t.xml:3"), "{e}");
+        }
+    }
+
+    #[test]
+    fn shapes_and_emitters() {
+        let s = scene(
+            "<bsdf type=\"diffuse\" id=\"w\"/>\n\
+             <shape type=\"disk\"><ref id=\"w\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"2\"/></emitter></shape>\n\
+             <shape type=\"rectangle\"><ref id=\"w\"/><boolean name=\"flip_normals\" value=\"true\"/></shape>\n\
+             <shape type=\"sphere\"><point name=\"center\" value=\"0, 0, 5\"/><float name=\"radius\" value=\"2\"/></shape>",
+            (8, 8),
+            "",
+        )
+        .unwrap();
+        let names: Vec<&String> = s.desc.materials.keys().collect();
+        assert_eq!(names, ["default-diffuse", "w", "w-emitter"]);
+        assert_eq!(s.desc.materials["w-emitter"].emission(), Some([2.0; 3]));
+        let [disk, rect, sphere] = &s.meshes[..] else {
+            panic!()
+        };
+        assert_eq!(disk.indices.len(), DISK_SEGMENTS as usize);
+        let n = |m: &Mesh| {
+            let t = m.triangle(0);
+            (t[1] - t[0]).cross(t[2] - t[0]).normalize()
+        };
+        assert!((n(disk) - Vec3::Z).length() < 1e-6);
+        assert!((n(rect) + Vec3::Z).length() < 1e-6, "flip_normals");
+        assert!(
+            sphere
+                .positions
+                .iter()
+                .all(|p| ((*p - Vec3::new(0.0, 0.0, 5.0)).length() - 2.0).abs() < 1e-5)
+        );
+        // Mirroring an analytic shape is refused; depth 0 too.
+        assert!(scene("<shape type=\"disk\"><transform name=\"to_world\"><scale x=\"-1\"/></transform></shape>", (8, 8), "").is_err());
+        assert!(
+            scene(
+                "<integrator type=\"path\"><integer name=\"max_depth\" value=\"0\"/></integrator>",
+                (8, 8),
+                ""
+            )
+            .is_err()
+        );
+        let d = scene(
+            "<integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator>",
+            (8, 8),
+            "",
+        )
+        .unwrap();
+        assert_eq!(d.desc.max_depth, 2);
+    }
 }

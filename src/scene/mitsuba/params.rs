@@ -49,12 +49,12 @@ impl<'a> Params<'a> {
 
     fn wrong(&self, c: &Node, want: &str) -> crate::error::Error {
         let what = if c.tag == "texture" || c.tag == "spectrum" {
-            " (mixmc has no textures or spectra: give a constant <rgb>)"
+            " (mixmc has no textures or spectra)"
         } else {
             ""
         };
         c.err(format!(
-            "{} is not supported in {}: mixmc reads `{}` as {want}{what}",
+            "{} is not supported in {}: `{}` must be {want}{what}",
             c.describe(),
             self.node.describe(),
             c.attr("name").unwrap_or_default()

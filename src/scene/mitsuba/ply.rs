@@ -200,8 +200,8 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh> {
         format,
         tokens: ascii_body.split_ascii_whitespace(),
     };
-    // Every element record takes at least one byte (binary) or one token (ascii, ≥ 2 bytes with
-    // its separator): larger counts cannot be in the file and are refused before allocating.
+    // A binary record takes at least its scalars' and list counts' bytes, an ascii one at least
+    // one byte a value: larger counts cannot be in the file and are refused before allocating.
     let room = bytes.len() - body;
     let mut mesh = Mesh::default();
     let mut faces_seen = false;
@@ -209,12 +209,15 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh> {
         let min: usize = e
             .props
             .iter()
-            .map(|p| p.list.map_or(p.ty.size(), |c| c.size()))
+            .map(|p| match format {
+                Format::Ascii => 1,
+                _ => p.list.map_or(p.ty.size(), |c| c.size()),
+            })
             .sum::<usize>()
             .max(1);
         if e.count.saturating_mul(min) > room {
             return Err(Error::new(format!(
-                "PLY: {} {}s cannot fit in the file's {room} bytes",
+                "PLY: {} records of element `{}` cannot fit in the file's {room} bytes",
                 e.count, e.name
             )));
         }

@@ -6,13 +6,13 @@ use crate::error::Result;
 use glam::{DMat3, DMat4, DVec3, DVec4};
 
 /// Numbers in an attribute: Mitsuba separates them by commas and/or white space.
-pub fn numbers(node: &Node, text: &str) -> Result<Vec<f64>> {
+fn parse_all<T: std::str::FromStr + Copy + Into<f64>>(node: &Node, text: &str) -> Result<Vec<T>> {
     text.split(|c: char| c == ',' || c.is_whitespace())
         .filter(|s| !s.is_empty())
         .map(|s| {
-            s.parse::<f64>()
+            s.parse::<T>()
                 .ok()
-                .filter(|v| v.is_finite())
+                .filter(|v| (*v).into().is_finite())
                 .ok_or_else(|| {
                     node.err(format!("{}: `{s}` is not a finite number", node.describe()))
                 })
@@ -20,20 +20,15 @@ pub fn numbers(node: &Node, text: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
-/// The same numbers as f32 parsed straight from the text (no detour through f64), so that a value
-/// written by our exporter comes back to the same bits.
+/// The numbers of an attribute, in double precision (transforms, as Mitsuba computes them).
+pub fn numbers(node: &Node, text: &str) -> Result<Vec<f64>> {
+    parse_all(node, text)
+}
+
+/// The same numbers as f32 parsed straight from the text (no detour through f64), so that a
+/// value written by our exporter comes back to the same bits.
 pub fn numbers_f32(node: &Node, text: &str) -> Result<Vec<f32>> {
-    text.split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            s.parse::<f32>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    node.err(format!("{}: `{s}` is not a finite number", node.describe()))
-                })
-        })
-        .collect()
+    parse_all(node, text)
 }
 
 /// A 3-vector from `value="x, y, z"` (or one value for all three), or from `x`, `y`, `z`

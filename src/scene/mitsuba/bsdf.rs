@@ -44,7 +44,7 @@ fn ior(p: &mut Params, name: &str, default: &str) -> Result<f32> {
         FloatOrString::Float(v) => v,
         FloatOrString::String(s) => lookup_ior(node, s)?,
     };
-    if !(v > 0.0) {
+    if v <= 0.0 {
         return Err(node.err(format!("{}: {v} must be positive", node.describe())));
     }
     Ok(v)

@@ -741,3 +741,46 @@ mod tests {
         assert_eq!(d.desc.max_depth, 2);
     }
 }
+
+#[cfg(test)]
+mod robustness {
+    use super::*;
+
+    /// Every prefix of real scenes (Mitsuba's own Cornell boxes, the bad corpus) and every
+    /// single-byte change of one at a stride: an error or a scene, never a panic. A quick
+    /// stand-in for the fuzz target `scene_xml` that runs in every `cargo test`.
+    #[test]
+    fn truncated_and_mangled_scenes_never_panic() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+        let mut texts = Vec::new();
+        for f in [
+            "mitsuba/cornell-box.xml",
+            "bad/plastic.xml",
+            "bad/beckmann.xml",
+        ] {
+            texts.push(std::fs::read_to_string(root.join(f)).unwrap());
+        }
+        let path = root.join("bad/x.xml");
+        let mut loaded = 0;
+        for t in &texts {
+            for cut in (0..t.len()).step_by(7) {
+                if let Some(prefix) = t.get(..cut) {
+                    loaded += usize::from(from_text(prefix, &path).is_ok());
+                }
+            }
+        }
+        let t = texts[0].as_bytes();
+        for i in (0..t.len()).step_by(5) {
+            for b in [b'"', b'<', b'$', b'0', b'-', b' '] {
+                let mut m = t.to_vec();
+                m[i] = b;
+                if let Ok(s) = std::str::from_utf8(&m) {
+                    loaded += usize::from(from_text(s, &path).is_ok());
+                }
+            }
+        }
+        // The whole files load, so some variants must too (the loop is not all errors).
+        assert!(from_text(&texts[0], &path).is_ok());
+        assert!(loaded > 0);
+    }
+}

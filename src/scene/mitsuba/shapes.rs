@@ -65,7 +65,7 @@ pub fn mesh(node: &Node, p: &mut Params) -> Result<Mesh> {
         "sphere" => {
             let center = p.point("center")?.unwrap_or([0.0; 3]);
             let radius = p.float32("radius")?.unwrap_or(1.0);
-            if !(radius > 0.0) {
+            if radius <= 0.0 {
                 return Err(node.err(format!(
                     "{}: radius {radius} must be positive",
                     node.describe()

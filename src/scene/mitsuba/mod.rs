@@ -743,6 +743,64 @@ mod tests {
 }
 
 #[cfg(test)]
+mod files {
+    use super::*;
+    use crate::math::Vec3;
+
+    /// OBJ and PLY shapes (relative to the XML file that names them, also through an include),
+    /// with a translation and flip_normals, and a mesh under a mirroring transform (allowed:
+    /// its front follows the transformed vertices, as in Mitsuba).
+    #[test]
+    fn meshes_from_files_through_an_include() {
+        let dir = std::env::temp_dir().join(format!("mixmc-xml-files-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(
+            dir.join("sub/tri.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("sub/tri.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+             0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("sub/shapes.xml"),
+            "<scene version=\"3.0.0\">\
+             <shape type=\"obj\"><string name=\"filename\" value=\"tri.obj\"/>\
+             <transform name=\"to_world\"><translate z=\"2\"/></transform></shape>\
+             <shape type=\"ply\"><string name=\"filename\" value=\"tri.ply\"/>\
+             <boolean name=\"flip_normals\" value=\"true\"/></shape>\
+             <shape type=\"ply\"><string name=\"filename\" value=\"tri.ply\"/>\
+             <transform name=\"to_world\"><scale x=\"-1\"/></transform></shape></scene>",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("main.xml"),
+            "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>\
+             <include filename=\"sub/shapes.xml\"/></scene>",
+        )
+        .unwrap();
+        let s = load(&dir.join("main.xml")).unwrap();
+        let n = |m: &Mesh| {
+            let t = m.triangle(0);
+            (t[1] - t[0]).cross(t[2] - t[0])
+        };
+        assert_eq!(s.meshes.len(), 3);
+        assert_eq!(s.meshes[0].positions[1], Vec3::new(1.0, 0.0, 2.0));
+        assert_eq!(n(&s.meshes[0]), Vec3::Z);
+        assert_eq!(n(&s.meshes[1]), -Vec3::Z);
+        assert_eq!(n(&s.meshes[2]), -Vec3::Z);
+        // No film: Mitsuba's default size, said in a warning.
+        assert_eq!((s.desc.film.width, s.desc.film.height), (768, 576));
+        assert!(s.warnings.iter().any(|w| w.contains("no <film>")));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[cfg(test)]
 mod robustness {
     use super::*;
 

@@ -42,8 +42,60 @@ pub fn write(imported: &Imported, json: &Path) -> Result<()> {
             *path = format!("{dir_name}/{name}");
         }
     }
-    let mut text = serde_json::to_string_pretty(&desc)
+    let text = serde_json::to_string_pretty(&desc)
         .map_err(|e| Error::in_file(json, format!("cannot write JSON: {e}")))?;
+    let mut text = one_line_vectors(&text);
     text.push('\n');
     write_bytes(json, text.as_bytes())
+}
+
+/// `[\n  1.0,\n  2.0\n]` → `[1.0, 2.0]`: serde_json's pretty printer puts every number of a
+/// vector on its own line, which makes a scene hard to read and edit.
+fn one_line_vectors(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find('[') {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + 1..];
+        let end = after.find(']');
+        let inner = end.map(|e| &after[..e]);
+        match inner {
+            // Only the printer's own arrays: they open with a line break, which a string
+            // (where a newline is `\n`) never holds, so names are never touched.
+            Some(inner)
+                if inner.starts_with('\n')
+                    && !inner.trim().is_empty()
+                    && inner.chars().all(|c| {
+                        c.is_ascii_digit() || c.is_whitespace() || ",.-+eE".contains(c)
+                    }) =>
+            {
+                let items: Vec<&str> = inner.split(',').map(str::trim).collect();
+                out.push('[');
+                out.push_str(&items.join(", "));
+                out.push(']');
+                rest = &after[inner.len() + 1..];
+            }
+            _ => {
+                out.push('[');
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn vectors_go_on_one_line() {
+        let v =
+            serde_json::json!({"a": [1.0, -2.5e-7, 3], "b": [], "c": [{"d": [4]}], "x[ 1 ]": 0});
+        let text = super::one_line_vectors(&serde_json::to_string_pretty(&v).unwrap());
+        assert!(text.contains("\"a\": [1.0, -2.5e-7, 3]"), "{text}");
+        assert!(text.contains("\"d\": [4]"), "{text}");
+        assert!(text.contains("\"x[ 1 ]\""), "{text}");
+        let back: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, v);
+    }
 }

@@ -8,7 +8,7 @@ cd "$(dirname "$0")"
 secs=${1:-600}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(scene_json obj exr_aov)
+[ ${#targets[@]} -gt 0 ] || targets=(scene_json obj exr_aov scene_xml ply)
 export RUSTC_BOOTSTRAP=1
 # nv-flip's bundled C++ (tinyexr, miniz) defines one global twice; that is its build, not ours.
 export ASAN_OPTIONS=detect_odr_violation=0

@@ -14,6 +14,12 @@ pub struct Camera {
     pub tan_half_x: f32,
     pub width: u32,
     pub height: u32,
+    /// The look-at point, up vector and vertical field of view (degrees) it was made from, so
+    /// that an exporter hands on the numbers it was given: recomputing them from the frame above
+    /// changes their last bits, and a re-imported scene would no longer be the same scene.
+    pub look_at: Vec3,
+    pub up_given: Vec3,
+    pub fov_y_given: f32,
 }
 
 impl Camera {
@@ -25,6 +31,7 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Camera {
+        let up_in = up;
         let forward = (look_at - position).normalize();
         // Right-handed, y up: with the camera looking down +z, screen right is −x.
         let right = forward.cross(up).normalize();
@@ -40,6 +47,9 @@ impl Camera {
             tan_half_x,
             width,
             height,
+            look_at,
+            up_given: up_in,
+            fov_y_given: fov_y_deg,
         }
     }
 

@@ -470,3 +470,95 @@ fn unwritable_outputs_are_refused_before_rendering_or_reading() {
         assert!(!Path::new(good).exists(), "{what}: wrote {good}");
     }
 }
+
+/// Mitsuba XML scenes (issue 25): what we do not model is refused, never approximated, with
+/// `TOOL: FILE:LINE: what` (the line of the offending element), exit 2, in every tool that
+/// reads scenes and in `mixmc-scene import`.
+#[test]
+fn bad_mitsuba_scenes_fail_with_their_line_in_every_tool_that_reads_scenes() {
+    let cases = [
+        ("plastic.xml", 7, "<bsdf type=\"plastic\"> is not supported"),
+        (
+            "textured.xml",
+            9,
+            "<texture type=\"bitmap\"> is not supported in <bsdf type=\"diffuse\">",
+        ),
+        (
+            "point-light.xml",
+            7,
+            "<emitter type=\"point\"> is not supported",
+        ),
+        (
+            "beckmann.xml",
+            8,
+            "distribution \"beckmann\" is not supported",
+        ),
+        ("undefined-parameter.xml", 8, "undefined parameter $r"),
+        (
+            "unknown-ref.xml",
+            8,
+            "<ref id=\"nope\">: no element has this id",
+        ),
+        (
+            "unknown-parameter.xml",
+            8,
+            "<float name=\"radius\"> is not a parameter mixmc supports in <shape type=\"cube\">",
+        ),
+        ("malformed.xml", 9, "not well-formed XML"),
+        (
+            "huge-film.xml",
+            5,
+            "film width 100000 must be between 1 and 16384",
+        ),
+        ("missing-ply.xml", 7, "no-such-file.ply: cannot read PLY"),
+        (
+            "bad-ply.xml",
+            7,
+            "bad-index.ply: PLY: face index 9 out of range (3 vertices)",
+        ),
+        ("include-loop.xml", 2, "includes nested deeper than 16"),
+    ];
+    for (name, line, needle) in cases {
+        let f = bad(name);
+        let at = format!("{f}:{line}");
+        let omc = [f, "--spp", "1", "-q"];
+        expect_error(
+            "mixmc-omc",
+            &[&omc[..], &THREADS].concat(),
+            &[],
+            &at,
+            needle,
+        );
+        let mmlt = [f, "--spp", "1", "--bootstrap", "10", "-q"];
+        expect_error(
+            "mixmc-mmlt",
+            &[&mmlt[..], &THREADS].concat(),
+            &[],
+            &at,
+            needle,
+        );
+        let mix = [f, "--time", "1", "-q"];
+        expect_error(
+            "mixmc-mix",
+            &[&mix[..], &THREADS].concat(),
+            &[],
+            &at,
+            needle,
+        );
+        expect_error("mixmc-scene", &["info", f], &[], &at, needle);
+        let tmp = TempDir::new(&format!("bad-import-{name}"));
+        let json = tmp.join("imported.json");
+        let args = ["import", f, "-o", json.to_str().unwrap()];
+        let out = tool("mixmc-scene", &args, &[]);
+        let stderr = assert_one_line_error("mixmc-scene", &out, &[needle]);
+        assert!(
+            stderr.starts_with(&format!("mixmc-scene: {at}: ")),
+            "{stderr}"
+        );
+        assert_eq!(
+            std::fs::read_dir(tmp.path()).unwrap().count(),
+            0,
+            "{stderr}"
+        );
+    }
+}

@@ -1,10 +1,12 @@
-//! `mixmc-scene info|preview|export`: look at a scene and hand it to other renderers.
+//! `mixmc-scene info|preview|export|import`: look at a scene, hand it to other renderers, and take
+//! theirs (Mitsuba 3 XML) in our format.
 
 use clap::{Parser, Subcommand, ValueEnum};
 use mixmc::cli::main_with;
+use mixmc::error::Error;
 use mixmc::film::{GBuffer, write_png};
 use mixmc::math::luminance;
-use mixmc::scene::{Scene, export::export_mitsuba};
+use mixmc::scene::{Scene, export::export_mitsuba, is_xml, mitsuba};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -12,7 +14,7 @@ use std::process::ExitCode;
 #[command(
     name = "mixmc-scene",
     version,
-    about = "Inspect and export mixmc scenes"
+    about = "Inspect, export and import mixmc scenes (our JSON, or Mitsuba 3 XML: every tool takes both)"
 )]
 struct Args {
     #[command(subcommand)]
@@ -39,6 +41,16 @@ enum Command {
         /// Directory for Mitsuba 3 XML (scene.xml) and PLY meshes.
         #[arg(long)]
         mitsuba: PathBuf,
+    },
+    /// Write a Mitsuba 3 XML scene in our JSON, its shapes' triangles as OBJ files beside it
+    /// (`NAME-meshes/K.obj`), for inspection and editing; it renders the same image as the XML.
+    /// What is read, approximated and refused: docs/mitsuba-import.md.
+    Import {
+        /// Mitsuba 3 scene (.xml).
+        scene: PathBuf,
+        /// Output JSON scene.
+        #[arg(short, long)]
+        output: PathBuf,
     },
 }
 
@@ -169,6 +181,20 @@ fn main() -> ExitCode {
                 s.print_warnings("mixmc-scene");
                 export_mitsuba(&s, &mitsuba)?;
                 println!("{}", mitsuba.join("scene.xml").display());
+            }
+            Command::Import { scene, output } => {
+                if !is_xml(&scene) {
+                    return Err(Error::in_file(
+                        &scene,
+                        "import reads Mitsuba 3 XML scenes (.xml); JSON scenes need no import",
+                    ));
+                }
+                let imported = mitsuba::load(&scene)?;
+                // Build it once, so that an import never writes a scene that cannot render.
+                let built = Scene::from_imported(imported.clone(), &scene)?;
+                built.print_warnings("mixmc-scene");
+                mitsuba::json::write(&imported, &output)?;
+                println!("{}", output.display());
             }
         }
         Ok(ExitCode::SUCCESS)

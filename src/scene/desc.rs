@@ -1,12 +1,13 @@
 //! The scene file as written by people (DESIGN §4): plain serde structs, checked for meaning in
-//! `scene::build`. Unknown keys are errors, so a typo never silently changes a render.
+//! `scene::build`. Unknown keys are errors, so a typo never silently changes a render. They
+//! serialise too, for `mixmc-scene import` (a Mitsuba scene written in our format).
 
-use serde::{Deserialize, Deserializer, de::Error as _};
+use serde::{Deserialize, Deserializer, Serialize, de::Error as _};
 use std::collections::BTreeMap;
 
 pub type V3 = [f32; 3];
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SceneDesc {
     pub camera: CameraDesc,
@@ -25,7 +26,7 @@ fn default_up() -> V3 {
     [0.0, 1.0, 0.0]
 }
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
     #[serde(deserialize_with = "finite3")]
@@ -39,7 +40,7 @@ pub struct CameraDesc {
     pub fov_y: f32,
 }
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct FilmDesc {
     #[serde(deserialize_with = "resolution")]
@@ -49,27 +50,31 @@ pub struct FilmDesc {
 }
 
 /// The four materials; any of them may emit (an area light on its front side).
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum MaterialDesc {
     Diffuse {
         #[serde(deserialize_with = "finite3")]
         albedo: V3,
         #[serde(default, deserialize_with = "opt_finite3")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         emission: Option<V3>,
     },
     Mirror {
         #[serde(deserialize_with = "finite3")]
         reflectance: V3,
         #[serde(default, deserialize_with = "opt_finite3")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         emission: Option<V3>,
     },
     Glass {
         #[serde(deserialize_with = "positive")]
         ior: f32,
         #[serde(default, deserialize_with = "opt_finite3")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         transmittance: Option<V3>,
         #[serde(default, deserialize_with = "opt_finite3")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         emission: Option<V3>,
     },
     Glossy {
@@ -78,6 +83,7 @@ pub enum MaterialDesc {
         #[serde(deserialize_with = "roughness")]
         roughness: f32,
         #[serde(default, deserialize_with = "opt_finite3")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         emission: Option<V3>,
     },
 }
@@ -94,23 +100,26 @@ impl MaterialDesc {
 }
 
 /// Scale, then rotate, then translate.
-#[derive(Deserialize, Debug, Clone, Default)]
+#[derive(Serialize, Deserialize, Debug, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub scale: Option<Scale>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub rotate: Option<Rotation>,
     #[serde(default, deserialize_with = "opt_finite3")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub translate: Option<V3>,
 }
 
-#[derive(Deserialize, Debug, Clone, Copy)]
+#[derive(Serialize, Deserialize, Debug, Clone, Copy)]
 #[serde(untagged)]
 pub enum Scale {
     Uniform(f32),
     Axes(V3),
 }
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct Rotation {
     #[serde(deserialize_with = "finite3")]
@@ -119,7 +128,7 @@ pub struct Rotation {
 }
 
 /// Mesh generators. Each carries its material name and an optional transform.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ObjectDesc {
     /// A parallelogram `origin + s·u + t·v`, s, t ∈ \[0, 1\]; its front is `u × v`.
@@ -131,6 +140,7 @@ pub enum ObjectDesc {
         #[serde(deserialize_with = "finite3")]
         v: V3,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
     /// An axis-aligned box given by its centre and size, outward-facing.
@@ -140,6 +150,7 @@ pub enum ObjectDesc {
         #[serde(default = "unit3", deserialize_with = "finite3")]
         size: V3,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
     /// A geodesic sphere (subdivided icosahedron), outward-facing.
@@ -151,6 +162,7 @@ pub enum ObjectDesc {
         #[serde(default = "default_sphere_subdivisions")]
         subdivisions: u32,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
     /// A torus around the y axis, outward-facing.
@@ -166,6 +178,7 @@ pub enum ObjectDesc {
         #[serde(default = "default_minor_segments")]
         minor_segments: u32,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
     /// A block of water with a wavy top (see `scene::water`): `center` is the middle of the mean
@@ -181,14 +194,17 @@ pub enum ObjectDesc {
         wavelength: f32,
         /// Largest distance between the triangles and the true surface; default amplitude / 50.
         #[serde(default, deserialize_with = "opt_positive")]
+        #[serde(skip_serializing_if = "Option::is_none")]
         max_error: Option<f32>,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
     /// A Wavefront OBJ file (positions and faces; path relative to the scene file).
     Obj {
         path: String,
         material: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
         transform: Option<TransformDesc>,
     },
 }

@@ -1,6 +1,8 @@
 //! Export to Mitsuba 3 (XML + binary PLY), so an independent renderer can check ours on the
 //! same triangles. Opaque BSDFs are wrapped in `twosided` (ours shade both sides); area emitters
-//! are one-sided in both; faces use geometric normals (`face_normals`), as ours do.
+//! are one-sided in both; faces use geometric normals (`face_normals`), as ours do. BSDF ids are
+//! the material names and the camera is written with the numbers it was given, so that
+//! `Scene::load` of the XML (`super::mitsuba`) gives back the same scene, bit for bit.
 
 use super::Scene;
 use crate::bsdf::Bsdf;
@@ -9,6 +11,16 @@ use crate::math::Rgb;
 use crate::output::write_bytes;
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// Text for an XML attribute value: markup characters as entities, and `$` escaped as Mitsuba's
+/// parser (and ours) expects, since `$name` would be a parameter.
+pub fn xml_attr(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('$', "\\$")
+}
 
 fn rgb(name: &str, c: Rgb) -> String {
     format!("<rgb name=\"{name}\" value=\"{}, {}, {}\"/>", c.x, c.y, c.z)
@@ -66,14 +78,14 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(&mesh_dir)
         .map_err(|e| Error::in_file(&mesh_dir, format!("cannot create: {e}")))?;
     let c = &scene.camera;
-    let target = c.position + c.forward;
+    let (target, up) = (c.look_at, c.up_given);
     let mut xml = String::from("<scene version=\"3.0.0\">\n");
     let _ = writeln!(
         xml,
         "  <integrator type=\"path\"><integer name=\"max_depth\" value=\"{}\"/></integrator>",
         scene.max_depth + 1
     );
-    let fov_y = 2.0 * c.tan_half_y.atan().to_degrees();
+    let fov_y = c.fov_y_given;
     let _ = writeln!(
         xml,
         "  <sensor type=\"perspective\">\n    <float name=\"fov\" value=\"{fov_y}\"/><string name=\"fov_axis\" value=\"y\"/>\n    \
@@ -87,19 +99,18 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
         target.x,
         target.y,
         target.z,
-        c.up.x,
-        c.up.y,
-        c.up.z,
+        up.x,
+        up.y,
+        up.z,
         c.width,
         c.height
     );
-    for (i, m) in scene.materials.iter().enumerate() {
-        let _ = writeln!(xml, "  <!-- {} -->", m.name.replace("--", "- -"));
+    for m in &scene.materials {
         let b = bsdf_xml(&m.bsdf);
         let _ = writeln!(
             xml,
             "  {}",
-            b.replacen("<bsdf ", &format!("<bsdf id=\"mat{i}\" "), 1)
+            b.replacen("<bsdf ", &format!("<bsdf id=\"{}\" ", xml_attr(&m.name)), 1)
         );
     }
     for (i, mesh) in scene.meshes.iter().enumerate() {
@@ -118,8 +129,8 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path) -> Result<()> {
         let _ = writeln!(
             xml,
             "  <shape type=\"ply\"><string name=\"filename\" value=\"meshes/{name}\"/>\
-             <boolean name=\"face_normals\" value=\"true\"/><ref id=\"mat{}\"/>{emitter}</shape>",
-            mesh.material
+             <boolean name=\"face_normals\" value=\"true\"/><ref id=\"{}\"/>{emitter}</shape>",
+            xml_attr(&mat.name)
         );
     }
     xml.push_str("</scene>\n");

@@ -4,6 +4,7 @@
 pub mod desc;
 pub mod export;
 pub mod mesh;
+pub mod mitsuba;
 pub mod obj;
 pub mod water;
 
@@ -68,20 +69,48 @@ pub struct SurfaceHit {
 pub const MAX_DEPTH_LIMIT: u32 = 1024;
 
 impl Scene {
-    /// Load and build a scene file; errors name the file, line, column and key.
+    /// Load and build a scene file: our JSON, or a Mitsuba 3 XML scene when the name ends in
+    /// `.xml` (`docs/mitsuba-import.md`). Every tool loads scenes here, so every tool takes both.
+    /// Errors name the file and line (and for JSON the column and key).
     pub fn load(path: &Path) -> Result<Scene> {
+        if is_xml(path) {
+            let imported = mitsuba::load(path)?;
+            return Scene::from_imported(imported, path);
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::in_file(path, format!("cannot read scene: {e}")))?;
         Scene::from_text(&text, path).map_err(|e| e.with_file(path))
     }
 
+    /// Build an imported Mitsuba scene from its description and in-memory meshes: the same
+    /// route as its JSON written by `mixmc-scene import`, so both give the same scene.
+    pub fn from_imported(imported: mitsuba::Imported, path: &Path) -> Result<Scene> {
+        let mitsuba::Imported {
+            desc,
+            meshes,
+            warnings,
+        } = imported;
+        let mut scene =
+            Scene::build(&desc, path, "", Some(meshes)).map_err(|e| e.with_file(path))?;
+        scene.warnings.splice(0..0, warnings);
+        Ok(scene)
+    }
+
     /// Parse and build a scene from its JSON text; `path` names it and anchors relative OBJ
     /// paths (the file itself is not read). Errors name the line, column and key, not the file.
     pub fn from_text(text: &str, path: &Path) -> Result<Scene> {
-        Scene::build(&parse(text)?, path, text)
+        Scene::build(&parse(text)?, path, text, None)
     }
 
-    fn build(desc: &SceneDesc, path: &Path, text: &str) -> Result<Scene> {
+    /// `prebuilt[i]`, when given, is object i's mesh (an imported scene's), in place of what
+    /// its description would generate.
+    fn build(
+        desc: &SceneDesc,
+        path: &Path,
+        text: &str,
+        prebuilt: Option<Vec<Mesh>>,
+    ) -> Result<Scene> {
+        let mut prebuilt = prebuilt.map(|v| v.into_iter());
         if desc.max_depth > MAX_DEPTH_LIMIT {
             return Err(Error::new(format!(
                 "key max_depth: {} exceeds the limit {MAX_DEPTH_LIMIT}",
@@ -124,7 +153,10 @@ impl Scene {
                     names.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
                 ))
             })?;
-            let mut m = generate(o, base).map_err(|e| Error::new(format!("key {key}: {e}")))?;
+            let mut m = match prebuilt.as_mut().and_then(|p| p.next()) {
+                Some(m) => m,
+                None => generate(o, base).map_err(|e| Error::new(format!("key {key}: {e}")))?,
+            };
             if let Some(t) = o.transform() {
                 apply_transform(&mut m, t);
             }
@@ -347,6 +379,12 @@ fn locate_value(text: &str, value: &str) -> (usize, usize) {
     (line, col)
 }
 
+/// Whether a scene file is Mitsuba XML (by its extension, in any case).
+pub fn is_xml(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
 fn desc_name(path: &Path) -> String {
     path.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -492,7 +530,7 @@ mod tests {
     fn parses_minimal_scene() {
         let d = parse(MINIMAL).unwrap();
         assert_eq!(d.max_depth, 8);
-        let s = Scene::build(&d, Path::new("x.json"), MINIMAL).unwrap();
+        let s = Scene::build(&d, Path::new("x.json"), MINIMAL, None).unwrap();
         assert!(s.tri_verts.len() > 1000 && s.lights.is_empty());
     }
 
@@ -502,11 +540,11 @@ mod tests {
             r#"{"type": "sphere", "radius": 1, "material": "white"}"#,
             r#"{"type": "water", "size": [2, 1], "depth": 0.5, "amplitude": 0.05, "wavelength": 0.8, "material": "white"}"#,
         );
-        let s = Scene::build(&parse(&water).unwrap(), Path::new("x.json"), &water).unwrap();
+        let s = Scene::build(&parse(&water).unwrap(), Path::new("x.json"), &water, None).unwrap();
         assert!(s.tri_verts.len() > 100);
         // Waves as high as the block is deep would cut through the bottom.
         let deep = water.replace("\"amplitude\": 0.05", "\"amplitude\": 0.5");
-        let Err(e) = Scene::build(&parse(&deep).unwrap(), Path::new("x.json"), &deep) else {
+        let Err(e) = Scene::build(&parse(&deep).unwrap(), Path::new("x.json"), &deep, None) else {
             panic!("accepted")
         };
         assert!(
@@ -514,7 +552,7 @@ mod tests {
             "{e}"
         );
         let bad = water.replace("\"size\": [2, 1]", "\"size\": [2, -1]");
-        assert!(Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad).is_err());
+        assert!(Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad, None).is_err());
     }
 
     #[test]
@@ -532,7 +570,7 @@ mod tests {
             "{e}"
         );
         let bad = MINIMAL.replace("\"material\": \"white\"", "\"material\": \"black\"");
-        let Err(e) = Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad) else {
+        let Err(e) = Scene::build(&parse(&bad).unwrap(), Path::new("x.json"), &bad, None) else {
             panic!("accepted")
         };
         assert!(

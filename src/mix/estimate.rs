@@ -36,7 +36,17 @@ pub struct Halves<'a> {
     pub wb: f64,
 }
 
-impl Halves<'_> {
+impl<'a> Halves<'a> {
+    /// Two halves of equal weight (MMLT's two groups of chains).
+    pub fn equal(a: &'a [[f32; 3]], b: &'a [[f32; 3]]) -> Halves<'a> {
+        Halves {
+            a,
+            b,
+            wa: 1.0,
+            wb: 1.0,
+        }
+    }
+
     /// Per pixel and channel, the variance of the whole estimate: Var(a − b) = σ²(1/wa + 1/wb)
     /// and the whole estimate has σ²/(wa + wb).
     pub fn variance(&self) -> Vec<[f64; 3]> {
@@ -217,30 +227,15 @@ mod tests {
                 .collect()
         };
         let (ra, rb) = (noisy(0.3), noisy(0.3));
-        let reference = Halves {
-            a: &ra,
-            b: &rb,
-            wa: 1.0,
-            wb: 1.0,
-        };
+        let reference = Halves::equal(&ra, &rb);
         let level = vec![[0.3f32; 3]; w * h];
         // Another unbiased render with the same noise: nothing is missing.
         let (ma, mb) = (noisy(0.3), noisy(0.3));
-        let same = Halves {
-            a: &ma,
-            b: &mb,
-            wa: 1.0,
-            wb: 1.0,
-        };
+        let same = Halves::equal(&ma, &mb);
         let none = missing_light(&same, &reference, &level, w, h);
         // One that is 0.1 too dark everywhere: (slope · 0.1)² per pixel.
         let (da, db) = (noisy(0.2), noisy(0.2));
-        let dark = Halves {
-            a: &da,
-            b: &db,
-            wa: 1.0,
-            wb: 1.0,
-        };
+        let dark = Halves::equal(&da, &db);
         let missing = missing_light(&dark, &reference, &level, w, h);
         let want = (ldr_slope(0.3) * 0.1).powi(2);
         assert!(none < 0.02 * want, "noise counted as missing light: {none}");

@@ -473,13 +473,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * s.seconds));
         let level = omc.level();
         let [a, b] = run.halves();
-        let mcmc_err = Halves {
-            a: &a,
-            b: &b,
-            wa: 1.0,
-            wb: 1.0,
-        }
-        .ldr_error(&level);
+        let mcmc_err = Halves::equal(&a, &b).ldr_error(&level);
         let chain_seconds = run.result().chain_seconds;
         let rates = Rates {
             omc_alone: omc.rate(None),

@@ -233,9 +233,7 @@ impl Halved {
         }
         let (da, ia) = film_means(&self.even.film, na);
         let (db, ib) = film_means(&self.odd, nb);
-        let whole = self.whole();
-        let (d, i) = film_means(&whole.film, n);
-        let level = smooth(&add(&d, &i), whole.film.width, whole.film.height);
+        let level = self.level();
         let part = |dv: &[[f32; 3]], iv: &[[f32; 3]]| -> Vec<[f32; 3]> {
             dv.iter()
                 .zip(iv)

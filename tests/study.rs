@@ -4,7 +4,7 @@
 mod util;
 
 use std::path::Path;
-use util::{TempDir, run_ok};
+use util::{TempDir, assert_one_line_error, run, run_ok};
 
 fn png_size(p: &Path) -> (u32, u32) {
     let img = image::open(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
@@ -78,4 +78,50 @@ fn quick_study_writes_scored_runs_tables_charts_and_crops() {
         let (w, h) = png_size(&out.join(format!("crops/{scene}.png")));
         assert!(w > 8 * h / 2 && h > 100, "crop strip {w}×{h}");
     }
+
+    // The same directory again: refused without --resume (its rows would be replaced); with it,
+    // only the missing runs are rendered and the rows already there are kept as they were.
+    let base = [
+        "--quick",
+        "--scene-dir",
+        &scene_dir,
+        "--reference-dir",
+        &ref_dir,
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--scenes",
+        "clean-tiny",
+        "--methods",
+        "pt,bpt",
+        "--seeds",
+        "2",
+    ];
+    assert_one_line_error(
+        "mixmc-study",
+        &run("mixmc-study", &base),
+        &["results.csv", "--resume"],
+    );
+    let (strip, _) = png_size(&out.join("crops/clean-tiny.png"));
+    // Reference and 7 methods (omc is one of ibpt or lt here), 6-pixel gaps.
+    let panel = (strip - 9 * 6) / 8;
+    run_ok("mixmc-study", &[&base[..], &["--resume"]].concat());
+    let resumed = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert!(resumed.starts_with(&csv), "the earlier rows changed");
+    let new: Vec<&str> = resumed.lines().skip(csv.lines().count()).collect();
+    // pt and bpt at budgets 1 and 2, seed 2: seed 1 was there.
+    assert_eq!(new.len(), 4, "{new:?}");
+    assert!(
+        new.iter()
+            .all(|r| r.starts_with("clean-tiny,") && r.contains(",2,")),
+        "{new:?}"
+    );
+    // The crop is redrawn for this plan's methods, from the images the first run kept: the
+    // reference, pt and bpt. The charts still hold every method.
+    assert_eq!(
+        png_size(&out.join("crops/clean-tiny.png")).0,
+        3 * panel + 4 * 6
+    );
+    let svg = std::fs::read_to_string(out.join("charts/clean-tiny-mse.svg")).unwrap();
+    assert!(svg.contains("mix-auto"));
 }

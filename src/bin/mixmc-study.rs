@@ -18,14 +18,21 @@ const TOOL: &str = "mixmc-study";
     version,
     about = "Compare the methods at equal time against references: Table 1, error-against-time charts, crops",
     after_help = "Writes DIR/results.csv, DIR/report.md (tables), DIR/charts/<scene>-{mse,flip}.{png,svg} and \
-DIR/crops/<scene>.png. Scene S is SCENE_DIR/S.json, its reference REFERENCE_DIR/S.exr. Methods: omc (the \
+DIR/crops/<scene>.png; results.csv after every render and the largest budget's seed-1 images in DIR/images/, \
+so that --resume goes on where a stopped study ended. Scene S is SCENE_DIR/S.json, its reference REFERENCE_DIR/S.exr. Methods: omc (the \
 paper's partner: ibpt for the Cornell scenes, lt for room and bathroom), pt, bpt, lt, ibpt, mmlt (whole \
-image), kelemen (MMLT with Kelemen's MIS), mix, mix-auto."
+image), kelemen (MMLT with Kelemen's MIS), mix, mix-auto (the paper's pairing, half and √c split), main (mixmc-mix's \
+defaults: the measured job)."
 )]
 struct Args {
-    /// Output directory (created if missing; files in it are replaced).
+    /// Output directory (created if missing). One that already holds a study's results.csv is
+    /// refused unless --resume.
     #[arg(short, long)]
     output: PathBuf,
+    /// Keep the rows of DIR/results.csv and render only the runs that are missing (a study
+    /// stopped by Ctrl-C or run in parts: other scenes, budgets or seeds into the same DIR).
+    #[arg(long)]
+    resume: bool,
     /// The quick study: the -tiny scenes, budgets 1 and 2 s, one seed, 10 000 bootstrap samples.
     #[arg(long)]
     quick: bool,
@@ -186,6 +193,24 @@ fn write_outputs(res: &Results, dir: &Path, command: &str) -> Result<()> {
     write_text(&dir.join("report.md"), &md)
 }
 
+/// The rows an earlier run left in `dir` (with `--resume`); without it, a directory that holds
+/// them is refused, since this run's first render would replace them.
+fn previous(dir: &Path, resume: bool) -> Result<Vec<mixmc::study::Record>> {
+    let path = dir.join("results.csv");
+    match (path.exists(), resume) {
+        (false, _) => Ok(Vec::new()),
+        (true, false) => Err(Error::in_file(
+            &path,
+            "a study's results are already here: --resume to continue it, or another -o DIR",
+        )),
+        (true, true) => {
+            let text =
+                std::fs::read_to_string(&path).map_err(|e| Error::in_file(&path, e.to_string()))?;
+            report::parse_csv(&text).map_err(|e| Error::in_file(&path, e))
+        }
+    }
+}
+
 fn main() -> ExitCode {
     main_with(TOOL, || {
         let args = Args::parse();
@@ -194,8 +219,9 @@ fn main() -> ExitCode {
         let plan = args.plan()?;
         // Created and checked before the first render: hours of renders must not be lost to it.
         mixmc::output::prepare_dir(&args.output)?;
+        let done = previous(&args.output, args.resume)?;
         mixmc::signal::install();
-        let res = run(&plan, args.quiet)?;
+        let res = run(&plan, args.quiet, &args.output, done)?;
         let command = mixmc::cli::command_line();
         write_outputs(&res, &args.output, &command)?;
         println!(

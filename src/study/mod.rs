@@ -300,8 +300,22 @@ fn render_one(
     Ok((rgb, rec))
 }
 
-/// Render every (scene, budget, seed, method) of the plan and score it against the reference.
-pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
+/// The file that keeps a showcase image, so that a resumed study can still crop it.
+fn showcase_path(dir: &Path, scene: &str, method: &str, budget: f64) -> PathBuf {
+    dir.join("images")
+        .join(format!("{scene}-{method}-{budget}s.exr"))
+}
+
+fn same_run(r: &Record, scene: &str, method: &str, budget: f64, seed: u64) -> bool {
+    r.scene == scene && r.method == method && r.budget == budget && r.seed == seed
+}
+
+/// Render every (scene, budget, seed, method) of the plan that `done` lacks and score it against
+/// the reference. `done` holds the rows of an earlier run of the study (`--resume`); they are
+/// kept, rows outside this plan too, so a study can be run in parts. After every render,
+/// `dir/results.csv` holds every row so far and the largest budget's seed-1 image is kept under
+/// `dir/images/`: a study stopped at any point loses at most the render in progress.
+pub fn run(plan: &Plan, quiet: bool, dir: &Path, done: Vec<Record>) -> Result<Results> {
     let scenes: Vec<Loaded> = plan
         .scenes
         .iter()
@@ -316,10 +330,11 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
     let progress = Progress::new(total as u64, "study", "runs", quiet);
     let largest = plan.budgets.iter().copied().fold(0.0, f64::max);
     let mut results = Results {
-        records: Vec::new(),
+        records: done,
         showcases: Vec::new(),
         partial: false,
     };
+    let mut counted = 0u64;
     'scenes: for (l, methods) in scenes.iter().zip(&method_lists) {
         let (w, h) = (l.scene.width() as usize, l.scene.height() as usize);
         let mut show = Showcase {
@@ -332,6 +347,25 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
         for &budget in &plan.budgets {
             for seed in 1..=plan.seeds {
                 for &method in methods {
+                    let name = method.name();
+                    let showcase = budget == largest && seed == 1;
+                    let kept = showcase_path(dir, &l.name, name, budget);
+                    if results
+                        .records
+                        .iter()
+                        .any(|r| same_run(r, &l.name, name, budget, seed))
+                    {
+                        if showcase && kept.exists() {
+                            let img = ExrImage::read(&kept)?;
+                            let rgb = img
+                                .require_rgb(["R", "G", "B"])
+                                .map_err(|e| e.with_file(&kept))?;
+                            show.images.push((name.to_string(), rgb));
+                        }
+                        counted += 1;
+                        progress.set(counted);
+                        continue;
+                    }
                     if signal::interrupted() {
                         results.partial = true;
                         break 'scenes;
@@ -343,11 +377,23 @@ pub fn run(plan: &Plan, quiet: bool) -> Result<Results> {
                         break 'scenes;
                     }
                     rec.scores = scores(&rgb, &l.reference, w, h);
-                    if budget == largest && seed == 1 {
+                    if showcase {
+                        let mut img = ExrImage::new(w, h);
+                        img.add_rgb("", ["R", "G", "B"], &rgb);
+                        std::fs::create_dir_all(dir.join("images"))
+                            .map_err(|e| Error::in_file(dir, e.to_string()))?;
+                        img.write(&kept, true)?;
                         show.images.push((rec.method.clone(), rgb));
                     }
                     results.records.push(rec);
-                    progress.set(results.records.len() as u64);
+                    let table = report::csv(&results.records);
+                    let csv_path = dir.join("results.csv");
+                    crate::output::write_atomic(&csv_path, |tmp| {
+                        std::fs::write(tmp, &table)
+                            .map_err(|e| Error::in_file(&csv_path, e.to_string()))
+                    })?;
+                    counted += 1;
+                    progress.set(counted);
                 }
             }
         }

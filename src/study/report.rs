@@ -60,11 +60,11 @@ pub fn spread(
     )
 }
 
+const CSV_HEADER: &str = "scene,method,omc,budget_s,seed,seconds,spp,mutations_per_pixel,complex_fraction,mcmc_share,mse_ldr,relmse,flip";
+
 /// `results.csv`: one row per render.
 pub fn csv(records: &[Record]) -> String {
-    let mut s = String::from(
-        "scene,method,omc,budget_s,seed,seconds,spp,mutations_per_pixel,complex_fraction,mcmc_share,mse_ldr,relmse,flip\n",
-    );
+    let mut s = format!("{CSV_HEADER}\n");
     for r in records {
         let _ = writeln!(
             s,
@@ -85,6 +85,56 @@ pub fn csv(records: &[Record]) -> String {
         );
     }
     s
+}
+
+/// The rows of a `results.csv` written by [`csv`], for `--resume`. A row that does not parse is
+/// an error naming its line: a resumed study must not silently drop renders.
+pub fn parse_csv(text: &str) -> std::result::Result<Vec<Record>, String> {
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    if header != CSV_HEADER {
+        return Err(format!(
+            "line 1: not a mixmc-study results.csv (header `{header}`)"
+        ));
+    }
+    lines
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, line)| {
+            parse_row(line).ok_or_else(|| format!("line {}: cannot read `{line}`", i + 2))
+        })
+        .collect()
+}
+
+fn parse_row(line: &str) -> Option<Record> {
+    let f: Vec<&str> = line.split(',').collect();
+    if f.len() != 13 {
+        return None;
+    }
+    let num = |s: &str| -> Option<f64> {
+        if s.is_empty() {
+            Some(f64::NAN)
+        } else {
+            s.parse().ok()
+        }
+    };
+    Some(Record {
+        scene: f[0].to_string(),
+        method: f[1].to_string(),
+        omc: f[2].to_string(),
+        budget: f[3].parse().ok()?,
+        seed: f[4].parse().ok()?,
+        seconds: num(f[5])?,
+        spp: num(f[6])?,
+        mutations_per_pixel: num(f[7])?,
+        complex_fraction: num(f[8])?,
+        mcmc_share: num(f[9])?,
+        scores: crate::metrics::Scores {
+            mse: num(f[10])?,
+            relmse: num(f[11])?,
+            flip: num(f[12])?,
+        },
+    })
 }
 
 fn opt(v: f64) -> String {
@@ -173,6 +223,7 @@ pub fn markdown(res: &Results) -> String {
             paper[3],
         );
     }
+    s.push_str(&against_best_single(records, &scenes, &budgets));
     for metric in [Metric::Mse, Metric::Flip, Metric::Relmse] {
         let methods = distinct(records.iter().map(|r| r.method.clone()));
         let _ = writeln!(
@@ -214,6 +265,57 @@ pub fn markdown(res: &Results) -> String {
             }
         }
     }
+    s
+}
+
+/// Methods that render the whole image alone, the peers the mixes must beat (issue 23's goal).
+const SINGLE: [&str; 5] = ["pt", "lt", "ibpt", "bpt", "mmlt"];
+
+/// Each mix's mean MSE ÷ the best single method's at the same budget, and which that was: the
+/// question the main job answers. Empty when no mix or no single method ran.
+fn against_best_single(records: &[Record], scenes: &[String], budgets: &[f64]) -> String {
+    let mixes: Vec<String> = distinct(records.iter().map(|r| r.method.clone()))
+        .into_iter()
+        .filter(|m| ["main", "mix", "mix-auto"].contains(&m.as_str()))
+        .collect();
+    let mut rows = String::new();
+    for scene in scenes {
+        for &b in budgets {
+            let best = SINGLE
+                .iter()
+                .filter_map(|m| spread(records, scene, m, b, Metric::Mse).map(|v| (v.mean, *m)))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            let Some((best_mse, best_name)) = best else {
+                continue;
+            };
+            let cells: Vec<String> = mixes
+                .iter()
+                .map(|m| {
+                    spread(records, scene, m, b, Metric::Mse)
+                        .map_or("—".into(), |v| format!("{:.2}", v.mean / best_mse))
+                })
+                .collect();
+            let _ = writeln!(
+                rows,
+                "| {scene} | {b} | {best_mse:.2} ({best_name}) | {} |",
+                cells.join(" | ")
+            );
+        }
+    }
+    if mixes.is_empty() || rows.is_empty() {
+        return String::new();
+    }
+    let mut s = format!(
+        "\n### Mixes ÷ the best single method ({}), MSE means; below 1 the mix wins\n\n| scene | budget (s) | best single |",
+        SINGLE.join(", ")
+    );
+    for m in &mixes {
+        let _ = write!(s, " {m} |");
+    }
+    s.push('\n');
+    s.push_str(&"|---".repeat(mixes.len() + 3));
+    s.push_str("|\n");
+    s.push_str(&rows);
     s
 }
 
@@ -280,6 +382,15 @@ mod tests {
         );
         assert!(md.contains("| 15.4 | 7.28 | 12.5 | 0.81 |"), "{md}");
         assert!(md.contains("**6.00 (6.00–6.00)**"), "{md}");
+        // mix 6 against the best single method, MMLT's 8.
+        assert!(
+            md.contains("| cornell-torus | 10 | 8.00 (mmlt) | 0.75 |"),
+            "{md}"
+        );
+        let back = parse_csv(&csv(&records)).unwrap();
+        assert_eq!(csv(&back), csv(&records));
+        assert!(parse_csv("scene,method\n").is_err());
+        assert!(parse_csv(&(csv(&records) + "cornell-torus,mix,ibpt,x,1,,,,,,,,\n")).is_err());
         let c = csv(&records);
         assert_eq!(c.lines().count(), 6);
         assert!(

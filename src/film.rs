@@ -3,11 +3,62 @@
 
 use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
-use crate::math::{Rgb, Vec3};
+use crate::math::{Rgb, Vec3, luminance};
 use crate::output::write_atomic;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::Arc;
+
+/// Sums over the film, per path depth, of `weight(pixel) · Y(value)`: MMLT's normalisations b_d
+/// (the film means of Y(α·I_d)) from an OMC render's own passes, which the main job has anyway
+/// and which hold every strategy of the method, where MMLT would spend passes of its own.
+#[derive(Clone, Debug)]
+pub struct DepthTally {
+    /// Per-pixel weights (the mask's α); none: every pixel counts 1.
+    weight: Option<Arc<[f32]>>,
+    /// Index: depth, the last slot taking every deeper path.
+    sums: Vec<f64>,
+}
+
+impl DepthTally {
+    /// A tally of depths 0 to `max_depth`.
+    pub fn new(weight: Option<Arc<[f32]>>, max_depth: u32) -> DepthTally {
+        DepthTally {
+            weight,
+            sums: vec![0.0; max_depth as usize + 1],
+        }
+    }
+
+    /// The same weights, nothing tallied.
+    pub fn empty(&self) -> DepthTally {
+        DepthTally {
+            weight: self.weight.clone(),
+            sums: vec![0.0; self.sums.len()],
+        }
+    }
+
+    #[inline]
+    pub fn add(&mut self, pixel: usize, depth: u32, value: Rgb) {
+        let w = self.weight.as_ref().map_or(1.0, |w| w[pixel]);
+        let v = (w * luminance(value)) as f64;
+        if w > 0.0 && v.is_finite() {
+            let last = self.sums.len() - 1;
+            self.sums[(depth as usize).min(last)] += v;
+        }
+    }
+
+    pub fn merge(&mut self, other: &DepthTally) {
+        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
+            *a += b;
+        }
+    }
+
+    /// The per-depth sums.
+    pub fn sums(&self) -> &[f64] {
+        &self.sums
+    }
+}
 
 /// Unnormalised sums of sample values, split by path depth (D: depth ≤ 1, I: depth ≥ 2).
 #[derive(Clone, Debug)]
@@ -16,6 +67,8 @@ pub struct Film {
     pub height: usize,
     pub direct: Vec<Rgb>,
     pub indirect: Vec<Rgb>,
+    /// When set, every value added is tallied by depth too.
+    pub tally: Option<DepthTally>,
 }
 
 impl Film {
@@ -25,6 +78,7 @@ impl Film {
             height,
             direct: vec![Rgb::ZERO; width * height],
             indirect: vec![Rgb::ZERO; width * height],
+            tally: None,
         }
     }
 
@@ -35,6 +89,9 @@ impl Film {
             self.direct[pixel] += value;
         } else {
             self.indirect[pixel] += value;
+        }
+        if let Some(t) = &mut self.tally {
+            t.add(pixel, depth, value);
         }
     }
 
@@ -48,6 +105,9 @@ impl Film {
             .par_iter_mut()
             .zip(&other.indirect)
             .for_each(|(a, b)| *a += *b);
+        if let (Some(a), Some(b)) = (&mut self.tally, &other.tally) {
+            a.merge(b);
+        }
     }
 }
 

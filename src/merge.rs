@@ -30,7 +30,7 @@ pub fn is_gbuffer(channel: &str) -> bool {
 /// Header attributes that may differ between independent passes: their sample counts, seeds,
 /// timings and ray counts, the commands that made them, where the mask file lay (its content
 /// hash must still match), and MMLT's own estimates ([`SUMMED_ATTRS`], [`MEAN_ATTRS`]).
-const PER_PASS_ATTRS: [&str; 16] = [
+const PER_PASS_ATTRS: [&str; 18] = [
     "mixmc.seed",
     "mixmc.spp",
     "mixmc.mutations",
@@ -44,13 +44,21 @@ const PER_PASS_ATTRS: [&str; 16] = [
     INPUT_COMMANDS_ATTR,
     SUMMED_ATTRS[0],
     SUMMED_ATTRS[1],
+    SUMMED_ATTRS[2],
+    SUMMED_ATTRS[3],
     MEAN_ATTRS[0],
     MEAN_ATTRS[1],
     MEAN_ATTRS[2],
 ];
 
-/// Per-pass counts that add up in a merge: MMLT's mutations per pixel and the chains' seconds.
-const SUMMED_ATTRS: [&str; 2] = ["mixmc.mutations_per_pixel", "mixmc.chain_seconds"];
+/// Per-pass counts that add up in a merge: MMLT's mutations per pixel and the seconds of its
+/// chains and of its start-up's phases.
+const SUMMED_ATTRS: [&str; 4] = [
+    "mixmc.mutations_per_pixel",
+    "mixmc.chain_seconds",
+    "mixmc.seconds.b",
+    "mixmc.seconds.bootstrap",
+];
 
 /// Per-pass statistics of MMLT: each pass estimates its own normalisation b (one number, and one
 /// per depth) and has its own acceptance rate. Passes with different b are still an unbiased

@@ -144,8 +144,12 @@ fn main() -> ExitCode {
         if let Some(png) = &args.png {
             write_beauty_png(png, &m.image)?;
         }
+        let b = m
+            .image
+            .text_attr("mixmc.b_source")
+            .map_or(String::new(), |src| format!(", b from {src}"));
         let how = format!(
-            "{:.2}% complex pixels{}, {}",
+            "{:.2}% complex pixels{}, {}{b}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

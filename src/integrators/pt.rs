@@ -10,44 +10,60 @@ use rayon::prelude::*;
 
 pub fn render_pass(scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {
     let w = film.width;
-    film.direct
+    let template = film.tally.as_ref().map(|t| t.empty());
+    let tallies: Vec<_> = film
+        .direct
         .par_chunks_mut(w)
         .zip(film.indirect.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(y, (drow, irow))| {
+        .map(|(y, (drow, irow))| {
+            let mut tally = template.clone();
             for x in 0..w {
                 let pixel = y * w + x;
                 let mut rng = Rng::new(seed, pixel as u64, pass);
-                let (d, i) = sample_pixel(scene, x, y, max_depth, &mut rng);
-                drow[x] += d;
-                irow[x] += i;
+                let mut out = [Rgb::ZERO; 2];
+                sample_pixel(scene, x, y, max_depth, &mut rng, |depth, v| {
+                    out[(depth >= 2) as usize] += v;
+                    if let Some(t) = &mut tally {
+                        t.add(pixel, depth, v);
+                    }
+                });
+                drow[x] += out[0];
+                irow[x] += out[1];
             }
-        });
+            tally
+        })
+        .collect();
+    // Rows in order: the tally does not depend on threads.
+    if let Some(t) = &mut film.tally {
+        tallies.iter().flatten().for_each(|r| t.merge(r));
+    }
 }
 
-/// One path through pixel (x, y): returns its (direct, indirect) radiance.
+/// One path through pixel (x, y): `add(depth, value)` receives each of its contributions.
 pub fn sample_pixel(
     scene: &Scene,
     x: usize,
     y: usize,
     max_depth: u32,
     rng: &mut impl Sampler,
-) -> (Rgb, Rgb) {
+    add: impl FnMut(u32, Rgb),
+) {
     let u = rng.next_2d();
     let dir = scene.camera.ray_dir(x as f32 + u.x, y as f32 + u.y);
-    radiance(scene, scene.camera.position, dir, max_depth, rng)
+    radiance(scene, scene.camera.position, dir, max_depth, rng, add)
 }
 
-/// Radiance arriving at `origin` from `dir`, split into depth ≤ 1 and depth ≥ 2.
+/// Radiance arriving at `origin` from `dir`: `add(depth, value)` receives each contribution,
+/// with its path's depth (scattering vertices), by which the film splits D from I.
 pub fn radiance(
     scene: &Scene,
     origin: Vec3,
     dir: Vec3,
     max_depth: u32,
     rng: &mut impl Sampler,
-) -> (Rgb, Rgb) {
-    let mut out = [Rgb::ZERO; 2];
-    let mut add = |depth: u32, v: Rgb| out[(depth >= 2) as usize] += v;
+    mut add: impl FnMut(u32, Rgb),
+) {
     let (mut o, mut d) = (origin, dir);
     let mut beta = Rgb::ONE;
     // η² accumulated through refractions, so roulette does not kill paths inside glass.
@@ -116,5 +132,4 @@ pub fn radiance(
         o = scene.offset(hit.p, hit.n, s.wi);
         d = s.wi;
     }
-    (out[0], out[1])
 }

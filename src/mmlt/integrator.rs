@@ -142,7 +142,9 @@ pub struct MmltSettings {
     pub budget: Budget,
     pub chains: usize,
     pub bootstrap: usize,
-    /// BPT samples per pixel that estimate each depth's normalisation b_d.
+    /// BPT samples per pixel that estimate each depth's normalisation b_d. 0: the caller knows
+    /// b_d better (the main job, from its OMC render) and sets it with
+    /// [`MmltRun::set_normalisation`]; until then the bootstrap's means stand in.
     pub b_spp: u64,
     pub large_step: f32,
     pub sigma: f32,
@@ -171,6 +173,11 @@ pub struct MmltResult {
     pub b_depth: Vec<f64>,
     /// BPT passes that estimated b (`b_spp` unless a time budget cut them short).
     pub b_spp: u64,
+    /// Where b came from: `bpt` (MMLT's own passes), `bootstrap`, or what the caller said.
+    pub b_source: String,
+    /// Seconds of the start-up's phases: the estimate of b and the bootstrap.
+    pub b_seconds: f64,
+    pub bootstrap_seconds: f64,
     /// Bootstrap samples per depth (`bootstrap` unless a time budget cut them short).
     pub bootstrap: usize,
     pub chains: usize,
@@ -354,6 +361,9 @@ pub struct MmltRun<'a> {
     s: MmltSettings,
     b_depth: Vec<f64>,
     b_spp: u64,
+    b_source: String,
+    b_seconds: f64,
+    bootstrap_seconds: f64,
     n_boot: usize,
     chains: Vec<Chain>,
     /// Rendered depths.
@@ -389,7 +399,18 @@ impl<'a> MmltRun<'a> {
         let nd = depths.len();
         let groups = groups.clamp(1, 2);
         let (b_depth, b_spp) = normalisation(scene, alpha, s, &depths);
+        let b_seconds = begin.elapsed().as_secs_f64();
         let (weights, n_boot) = bootstrap(scene, alpha, s, &depths);
+        let bootstrap_seconds = begin.elapsed().as_secs_f64() - b_seconds;
+        let (b_depth, b_source) = if s.b_spp == 0 {
+            // Each bootstrap weight is a one-sample estimate of b_d (DESIGN §1).
+            let means = weights
+                .chunks(n_boot.max(1))
+                .map(|w| w.iter().map(|&y| y as f64).sum::<f64>() / n_boot.max(1) as f64);
+            (means.collect(), "bootstrap")
+        } else {
+            (b_depth, "bpt")
+        };
         let mut chains = start_chains(scene, alpha, s, &depths, &weights, n_boot, pixels);
         let mut per_depth = vec![0u64; groups * nd];
         let mut rank = vec![0usize; nd];
@@ -408,6 +429,9 @@ impl<'a> MmltRun<'a> {
             s: s.clone(),
             b_depth,
             b_spp,
+            b_source: b_source.into(),
+            b_seconds,
+            bootstrap_seconds,
             n_boot,
             chains,
             nd,
@@ -426,6 +450,16 @@ impl<'a> MmltRun<'a> {
     /// Seconds spent so far (start-up and rounds).
     pub fn seconds(&self) -> f64 {
         self.seconds
+    }
+
+    /// Each rendered depth's b_d (from `min_depth` up), estimated by the caller, and what from.
+    /// The chains do not depend on it (Kelemen's MIS aside, which needs b_d before they run):
+    /// it only scales the image.
+    pub fn set_normalisation(&mut self, b_depth: Vec<f64>, source: &str) {
+        assert_eq!(b_depth.len(), self.nd, "one b_d per rendered depth");
+        assert!(!self.s.kelemen_mis, "Kelemen's MIS uses b_d in the chains");
+        self.b_depth = b_depth;
+        self.b_source = source.into();
     }
 
     /// Go on until the render holds `budget` in all: `Passes(n)` mutations per pixel, or
@@ -585,6 +619,9 @@ impl<'a> MmltRun<'a> {
             b: self.b_depth.iter().sum(),
             b_depth: self.b_depth.clone(),
             b_spp: self.b_spp,
+            b_source: self.b_source.clone(),
+            b_seconds: self.b_seconds,
+            bootstrap_seconds: self.bootstrap_seconds,
             bootstrap: self.n_boot,
             chains: self.chains.len(),
             acceptance: if self.chains.is_empty() || self.rounds == 0 {
@@ -874,6 +911,9 @@ pub fn mcmc_image(
     img.set_float("mixmc.sigma", s.sigma as f64);
     img.set_float("mixmc.bootstrap", r.bootstrap as f64);
     img.set_float("mixmc.b_spp", r.b_spp as f64);
+    img.set_text("mixmc.b_source", r.b_source.clone());
+    img.set_float("mixmc.seconds.b", r.b_seconds);
+    img.set_float("mixmc.seconds.bootstrap", r.bootstrap_seconds);
     let b_depth: Vec<String> = r.b_depth.iter().map(|b| format!("{b:e}")).collect();
     img.set_text("mixmc.b_depth", b_depth.join(" "));
     img.set_text(

@@ -129,12 +129,14 @@ pub fn render_pass(
     film: &mut Film,
 ) {
     let (w, h) = (film.width, film.height);
-    let rows: Vec<(Vec<[Rgb; 2]>, Vec<Splat>)> = (0..h)
+    let template = film.tally.as_ref().map(|t| t.empty());
+    let rows: Vec<_> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut paths = Paths::default();
             let mut own = vec![[Rgb::ZERO; 2]; w];
             let mut splats = Vec::new();
+            let mut tally = template.clone();
             for (x, own_px) in own.iter_mut().enumerate() {
                 let visit = |depth: u32, splat: Option<usize>, value: Rgb| match splat {
                     Some(px) => splats.push(Splat {
@@ -142,7 +144,12 @@ pub fn render_pass(
                         depth,
                         value,
                     }),
-                    None => own_px[(depth >= 2) as usize] += value,
+                    None => {
+                        own_px[(depth >= 2) as usize] += value;
+                        if let Some(t) = &mut tally {
+                            t.add(y * w + x, depth, value);
+                        }
+                    }
                 };
                 trace_sample(
                     scene,
@@ -157,13 +164,16 @@ pub fn render_pass(
                     visit,
                 );
             }
-            (own, splats)
+            (own, splats, tally)
         })
         .collect();
-    for (y, (own, splats)) in rows.iter().enumerate() {
+    for (y, (own, splats, tally)) in rows.iter().enumerate() {
         for (x, v) in own.iter().enumerate() {
             film.direct[y * w + x] += v[0];
             film.indirect[y * w + x] += v[1];
+        }
+        if let (Some(t), Some(r)) = (&mut film.tally, tally) {
+            t.merge(r);
         }
         for sp in splats {
             film.add(sp.pixel as usize, sp.depth, sp.value);

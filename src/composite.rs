@@ -36,16 +36,24 @@ pub fn complex_fraction(alpha: &[f32]) -> f64 {
 }
 
 /// Eq. (2) per pixel: `d + i_omc·(1 − α) + i_mcmc`, into `d` (a 4K frame's result is 100 MB
-/// of fresh memory otherwise).
-pub fn equation2(d: &mut [[f32; 3]], i_omc: &[[f32; 3]], alpha: &[f32], i_mcmc: &[[f32; 3]]) {
+/// of fresh memory otherwise); in complex pixels with OMC weight `k`, `d + k·i_omc + (1 − k)·i_mcmc`
+/// (`k` = 0 is eq. (2) bit for bit).
+pub fn equation2(
+    d: &mut [[f32; 3]],
+    i_omc: &[[f32; 3]],
+    alpha: &[f32],
+    i_mcmc: &[[f32; 3]],
+    omc_weight: f32,
+) {
     d.par_iter_mut()
         .zip(i_omc)
         .zip(alpha)
         .zip(i_mcmc)
         .with_min_len(PIXEL_CHUNK)
         .for_each(|(((d, i), a), m)| {
+            let k = if is_complex(*a) { omc_weight } else { 0.0 };
             for c in 0..3 {
-                d[c] = d[c] + i[c] * (1.0 - a) + m[c];
+                d[c] = d[c] + i[c] * (1.0 - a + k) + m[c] * (1.0 - k);
             }
         });
 }
@@ -76,6 +84,10 @@ pub struct Options {
     pub fxaa: bool,
     /// Switch to MCMC only when the complex fraction exceeds this.
     pub switch: f64,
+    /// Inside the mask, the weight `k` of OMC's indirect light, MMLT's getting `1 − k`: both
+    /// estimate `I` there, and when their errors are alike the weighed pair beats either (the main
+    /// job measures `k`, `mix::plan`). 0 is eq. (2).
+    pub omc_weight: f32,
 }
 
 /// An input image with the path it came from, for error messages and the output header.
@@ -222,7 +234,7 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     }
 
     let mut mixed = d;
-    equation2(&mut mixed, &i_omc, &alpha_used, &i_mcmc);
+    equation2(&mut mixed, &i_omc, &alpha_used, &i_mcmc, opts.omc_weight);
     drop((i_omc, i_mcmc));
     let borders = mask_borders(&alpha_used, w, h);
     let border_pixels = borders.iter().filter(|b| **b).count();
@@ -246,6 +258,7 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     image.set_float("mixmc.switch", opts.switch);
     image.set_text("mixmc.switched", if switched { "true" } else { "false" });
     image.set_text("mixmc.fxaa", if opts.fxaa { "true" } else { "false" });
+    image.set_float("mixmc.omc_weight", opts.omc_weight as f64);
     image.set_float(
         "mixmc.fxaa_pixels",
         if opts.fxaa { border_pixels as f64 } else { 0.0 },
@@ -284,7 +297,11 @@ mod tests {
         let i = [[4.0, 8.0, 16.0], [2.0, 2.0, 2.0]];
         let m = [[0.25, 0.5, 1.0], [3.0, 3.0, 3.0]];
         let mut out = d;
-        equation2(&mut out, &i, &[0.5, 1.0], &m);
+        equation2(&mut out, &i, &[0.5, 1.0], &m, 0.0);
         assert_eq!(out, [[3.25, 6.5, 12.0], [3.5, 3.5, 3.5]]);
+        // OMC weight ¼ inside the mask only: 0.5 + 2/4 + 3·3/4.
+        let mut out = d;
+        equation2(&mut out, &i, &[0.5, 1.0], &m, 0.25);
+        assert_eq!(out, [[3.25, 6.5, 12.0], [3.25, 3.25, 3.25]]);
     }
 }

@@ -43,6 +43,8 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
         &["--switch", "1", "--omc", "ibpt", "--split", "half"],
     );
     let fin = read(&out);
+    // The paper's split keeps eq. (2): MMLT alone inside the mask.
+    assert_eq!(fin.float_attr("mixmc.omc_weight"), Some(0.0));
     let snapshot = read(&keep.join("omc-snapshot.exr"));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
@@ -206,8 +208,11 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
                 keep.join("mask.exr"),
                 keep.join("mcmc.exr"),
             );
+            // The measured job weighs OMC's indirect light inside the mask too; the compositor
+            // takes the weight the job wrote.
+            let k = fin.float_attr("mixmc.omc_weight").unwrap().to_string();
             let mut args = vec!["--omc", p(&o), "--mask", p(&m), "--mcmc", p(&c)];
-            args.extend(["-o", p(&fin2), "--switch", "1"]);
+            args.extend(["-o", p(&fin2), "--switch", "1", "--omc-weight", &k]);
             run_ok("mixmc-composite", &args);
             assert_eq!(differ(&rgb(&fin), &rgb(&read(&fin2))), 0);
         }
@@ -216,7 +221,7 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     // Where the mask marked pixels, MMLT's pilot ran and the job wrote what it weighed.
     if fin.float_attr("mixmc.complex_fraction").unwrap() > 0.0 {
         for k in [
-            "mixmc.rate.mcmc",
+            "mixmc.rate.mcmc_in",
             "mixmc.predicted.omc_alone",
             "mixmc.predicted.mix",
         ] {

@@ -41,6 +41,10 @@ struct Args {
     /// have been rendered without a mask.
     #[arg(long, default_value_t = DEFAULT_SWITCH)]
     switch: f64,
+    /// Inside the mask, the weight of OMC's indirect light; MCMC's gets 1 minus it (0: eq. (2);
+    /// mixmc-mix measures it and writes it as mixmc.omc_weight).
+    #[arg(long, default_value_t = 0.0)]
+    omc_weight: f32,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -52,6 +56,9 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         mixmc::cli::check_switch(args.switch)?;
+        if !(0.0..=1.0).contains(&args.omc_weight) {
+            return Err(mixmc::error::Error::new("--omc-weight must be in [0, 1]"));
+        }
         // The outputs are checked before any work: a render must not be lost to its output.
         mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
         let omc = args.layout.open(&args.omc)?;
@@ -73,6 +80,7 @@ fn main() -> ExitCode {
             Options {
                 fxaa: !args.no_fxaa,
                 switch: args.switch,
+                omc_weight: args.omc_weight,
             },
         )?;
         for (file, msg) in &result.warnings {
@@ -87,10 +95,17 @@ fn main() -> ExitCode {
         img.into_file(&args.output, false)?;
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)
-        } else if args.no_fxaa {
-            "eq. (2), no FXAA".to_string()
         } else {
-            format!("eq. (2), FXAA on {} border pixels", result.border_pixels)
+            let eq = if args.omc_weight > 0.0 {
+                format!("eq. (2) with OMC weight {} in the mask", args.omc_weight)
+            } else {
+                "eq. (2)".to_string()
+            };
+            if args.no_fxaa {
+                format!("{eq}, no FXAA")
+            } else {
+                format!("{eq}, FXAA on {} border pixels", result.border_pixels)
+            }
         };
         println!(
             "{}: {:.2}% complex pixels; {how}",

@@ -52,6 +52,9 @@ struct Args {
     /// Above this fraction of complex pixels render MCMC only.
     #[arg(long, default_value_t = 0.35)]
     switch: f64,
+    /// ε: the mask's value outside complex regions (0 < ε < 0.5).
+    #[arg(long, default_value_t = MaskParams::default().epsilon)]
+    epsilon: f32,
     /// MMLT chains.
     #[arg(long, default_value_t = 256)]
     chains: usize,
@@ -88,6 +91,9 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         check_switch(args.switch)?;
+        if !(args.epsilon > 0.0 && args.epsilon < 0.5) {
+            return Err(Error::new("--epsilon must be in (0, 0.5)"));
+        }
         // The outputs are checked before any work: the job must not be lost to its output.
         mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
         if let Some(dir) = &args.keep {
@@ -108,6 +114,7 @@ fn main() -> ExitCode {
             mask: MaskParams {
                 paper: args.paper_mask,
                 switch: args.switch,
+                epsilon: args.epsilon,
                 ..MaskParams::default()
             },
             seed: args.seed,

@@ -27,8 +27,8 @@ use crate::mmlt::{
 use crate::omc::{OmcSettings, aov_image};
 use crate::render::{Budget, Rendered, continue_passes};
 use crate::scene::Scene;
-use estimate::{Halves, add, film_means, missing_light, smooth};
-use plan::{Choice, Decision, Rates, decide};
+use estimate::{Halves, MixHalf, add, film_means, missing_light, smooth, weight_in_mask};
+use plan::{Choice, Decision, Quadratic, Rates, decide};
 use std::path::Path;
 use std::time::Instant;
 
@@ -271,17 +271,31 @@ impl Halved {
         .ldr_error(&level)
     }
 
+    /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
+    /// render's halves and MMLT's (`estimate::weight_in_mask`).
+    fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> f64 {
+        let n = self.even.passes;
+        let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
+        let (db, ib) = film_means(&self.odd, (n / 2).max(1));
+        let [ma, mb] = run.halves();
+        let inside: Vec<bool> = alpha
+            .iter()
+            .map(|a| crate::composite::is_complex(*a))
+            .collect();
+        let half = |direct, indirect, mcmc| MixHalf {
+            direct,
+            indirect,
+            mcmc,
+        };
+        weight_in_mask([half(&da, &ia, &ma), half(&db, &ib, &mb)], &inside)
+    }
+
     /// The means of each half's beauty (D + I).
     fn beauty_halves(&self) -> [Vec<[f32; 3]>; 2] {
         let n = self.even.passes;
         let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
         let (db, ib) = film_means(&self.odd, (n / 2).max(1));
         [add(&da, &ia), add(&db, &ib)]
-    }
-
-    /// The image-mean error times the seconds it took.
-    fn rate(&self, mcmc_weight: Option<&[f32]>) -> f64 {
-        mean(&self.errors(mcmc_weight)) * self.even.seconds
     }
 
     /// The smoothed beauty: where MMLT's error is linearised too.
@@ -294,6 +308,50 @@ impl Halved {
 
 fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The estimated image-mean LDR squared errors of each part of the mix as the renders stand,
+/// split at the mask: every pixel counts towards the mean, only its own part's sum.
+struct Errors {
+    /// OMC's beauty, the whole image.
+    omc_alone: f64,
+    /// OMC's `D + (1 − ε)·I` outside the mask.
+    omc_out: f64,
+    /// OMC's `D + w·I` inside it, as a function of `w`.
+    omc_in: Quadratic,
+    /// MMLT's α·I outside the mask and inside it.
+    mcmc_out: f64,
+    mcmc_in: f64,
+}
+
+impl Errors {
+    fn measure(omc: &Halved, run: &MmltRun, alpha: &[f32]) -> Errors {
+        let n = alpha.len().max(1) as f64;
+        let inside = |p: usize| crate::composite::is_complex(alpha[p]);
+        let sums = |e: &[f64]| {
+            e.iter().enumerate().fold([0.0; 2], |mut s, (p, x)| {
+                s[inside(p) as usize] += x / n;
+                s
+            })
+        };
+        // OMC's indirect light at weight w inside the mask; MMLT's weight is 1 − w.
+        let at = |w: f32| {
+            let mcmc_weight: Vec<f32> = (0..alpha.len())
+                .map(|p| if inside(p) { 1.0 - w } else { alpha[p] })
+                .collect();
+            sums(&omc.errors(Some(&mcmc_weight)))
+        };
+        let (at0, at_half, at1) = (at(0.0), at(0.5), at(1.0));
+        let [a, b] = run.halves();
+        let mcmc = sums(&Halves::equal(&a, &b).ldr_error(&omc.level()));
+        Errors {
+            omc_alone: mean(&omc.errors(None)),
+            omc_out: at0[0],
+            omc_in: Quadratic::through(at0[1], at_half[1], at1[1]),
+            mcmc_out: mcmc[0],
+            mcmc_in: mcmc[1],
+        }
+    }
 }
 
 /// What every phase of one job shares.
@@ -498,16 +556,16 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         mmlt_settings.budget = Budget::Seconds(0.5 * job.left().max(1e-3));
         let mut run = MmltRun::start(scene, mmlt_alpha, &mmlt_settings, 2);
         run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * s.seconds));
-        let level = omc.level();
-        let [a, b] = run.halves();
-        let mcmc_err = Halves::equal(&a, &b).ldr_error(&level);
-        let chain_seconds = run.result().chain_seconds;
+        let e = Errors::measure(&omc, &run, &mmlt_mask.alpha);
+        let (u, v) = (omc.even.seconds, run.result().chain_seconds);
         let rates = Rates {
-            omc_alone: omc.rate(None),
-            omc_in_mix: omc.rate(Some(&mmlt_mask.alpha)),
-            mcmc: mean(&mcmc_err) * chain_seconds,
-            omc_seconds: omc.even.seconds,
-            mcmc_seconds: chain_seconds,
+            omc_alone: e.omc_alone * u,
+            omc_out: e.omc_out * u,
+            omc_in: Quadratic(e.omc_in.0.map(|c| c * u)),
+            mcmc_out: e.mcmc_out * v,
+            mcmc_in: e.mcmc_in * v,
+            omc_seconds: u,
+            mcmc_seconds: v,
         };
         let d = decide(&rates, job.left());
         mmlt = Some(run);
@@ -548,6 +606,14 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             run.set_normalisation(b, &format!("{source}:{}:{passes}", method.name()));
         }
     }
+    // Inside the mask OMC's and MMLT's estimates of the indirect light are weighed by their
+    // errors as measured at the end (`estimate::weight_in_mask`); the fixed splits keep eq. (2).
+    let omc_weight = match (&mmlt, choice) {
+        (Some(run), Choice::Mix { .. }) if measured && !partial => {
+            omc.weight_in_mask(run, &mmlt_mask.alpha) as f32
+        }
+        _ => 0.0,
+    };
     let (mcmc, mmlt_seconds) = match &mmlt {
         Some(run) => {
             let r = run.result();
@@ -582,6 +648,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
                 Options {
                     fxaa: s.fxaa,
                     switch: s.mask.switch,
+                    omc_weight,
                 },
             )?;
             if let Some((file, msg)) = c.warnings.first() {
@@ -616,6 +683,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     image.set_float("mixmc.complex_fraction", complex_fraction);
     image.set_text("mixmc.switched", if switched { "true" } else { "false" });
     image.set_text("mixmc.decision", choice.name());
+    image.set_float("mixmc.omc_weight", omc_weight as f64);
     if !candidates.is_empty() {
         let list: Vec<String> = candidates
             .iter()
@@ -658,10 +726,15 @@ fn normalisation(sums: &[f64], passes: u64, min_depth: u32, pixels: usize) -> Op
 /// The measured rates and predictions, so that a user can see why the job chose what it did.
 fn set_decision(image: &mut ExrImage, d: &Decision, r: &Rates) {
     image.set_float("mixmc.rate.omc_alone", r.omc_alone);
-    image.set_float("mixmc.rate.omc_in_mix", r.omc_in_mix);
-    image.set_float("mixmc.rate.mcmc", r.mcmc);
+    image.set_float("mixmc.rate.omc_out", r.omc_out);
+    for (k, c) in r.omc_in.0.iter().enumerate() {
+        image.set_float(&format!("mixmc.rate.omc_in.w{k}"), *c);
+    }
+    image.set_float("mixmc.rate.mcmc_out", r.mcmc_out);
+    image.set_float("mixmc.rate.mcmc_in", r.mcmc_in);
     image.set_float("mixmc.predicted.omc_alone", d.predicted_omc);
     image.set_float("mixmc.predicted.mix", d.predicted_mix);
+    image.set_float("mixmc.predicted.omc_weight", d.omc_weight);
 }
 
 /// Our own AOV image as the layout the mask and compositor read (`Source::into_image` gives

@@ -1,13 +1,23 @@
 //! How the main job spends what is left of its budget below the mask's switch, from measured
-//! error rates: OMC alone, or the mix at the split that minimises the predicted error.
+//! error rates: OMC alone, or the mix at the split and OMC weight that minimise the predicted
+//! error.
 //!
 //! An unbiased estimator's error falls as 1/t, so a method is summed up by its rate, the image's
-//! mean squared error times the seconds it took (the error estimates of `estimate`). With OMC's
-//! rate `a` (over the whole image when alone; in the mix, outside the mask plus the direct light
-//! inside it) and MMLT's rate `b`, OMC for `u` seconds and MMLT for `v` seconds give
-//! `a/u + b/v`; at `u + v = S` that is smallest at `v/u = √b/√a`. The same comparison reaches
-//! OMC alone, where `a_alone/(u+v)` beats every split. Above the switch the job renders MCMC
-//! alone without asking: there a short pilot misjudges both methods (module `mix`).
+//! mean squared error times the seconds it took (the error estimates of `estimate`). Inside the
+//! mask both methods have rendered the indirect light, OMC because it renders the whole image
+//! anyway: eq. (2) throws OMC's estimate there away, the main job weighs the two (`omc_weight`:
+//! OMC's indirect light gets `w`, MMLT's `1 − w`). On cornell-torus at 30 s, where BPT's and
+//! MMLT's errors inside the mask are within 2× of each other, the weighted pair has 16% less
+//! error than the image of eq. (2) (docs/main-job.md); where MMLT is far better (cornell-water)
+//! `w` goes to 0 and eq. (2) is what remains.
+//!
+//! With OMC's rate outside the mask `a_out`, its rate inside the mask for `D + w·I` the quadratic
+//! `q(w)` (its direct and indirect light are correlated, so the three coefficients are measured),
+//! and MMLT's rates inside and outside the mask `m_in`, `m_out`, OMC for `u` seconds and MMLT for
+//! `v` give `(a_out + q(w))/u + (m_out + (1 − w)²·m_in)/v`. For each split the best `w` is in
+//! closed form; the split is searched. OMC alone, `a_alone/(u + v)`, is weighed beside it. Above
+//! the switch the job renders MCMC alone without asking: there a short pilot misjudges both
+//! methods (module `mix`).
 
 /// What the rest of the budget goes to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,18 +40,69 @@ impl Choice {
     }
 }
 
+/// The error of one method's estimate inside the mask as the quadratic `q0 + q1·w + q2·w²` of
+/// the weight `w` its indirect light gets (OMC: `D + w·I`; MMLT: `(1 − w)·I`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Quadratic(pub [f64; 3]);
+
+impl Quadratic {
+    /// From the error at weights 0, ½ and 1 (exact for an error that is a variance of `D + w·I`).
+    pub fn through(at0: f64, at_half: f64, at1: f64) -> Quadratic {
+        Quadratic([
+            at0,
+            4.0 * at_half - 3.0 * at0 - at1,
+            2.0 * at1 + 2.0 * at0 - 4.0 * at_half,
+        ])
+    }
+
+    pub fn at(self, w: f64) -> f64 {
+        let [c0, c1, c2] = self.0;
+        c0 + w * (c1 + w * c2)
+    }
+}
+
+/// The weight of OMC's indirect light inside the mask (MMLT's gets `1 − w`) that minimises
+/// `omc.at(w) / u + w_mcmc(1 − w)² / v` for OMC's error quadratic `omc` over `u` seconds and
+/// MMLT's error `mcmc` (its indirect light at weight 1) over `v`; clamped to [0, 1]. Where
+/// neither error is measurable, MMLT's estimate is kept (eq. (2)).
+pub fn omc_weight(omc: Quadratic, u: f64, mcmc: f64, v: f64) -> f64 {
+    let [_, q1, q2] = omc.0;
+    let (q1, q2, m) = (q1 / u, q2 / u, mcmc / v);
+    // d/dw: q1 + 2·q2·w − 2·m·(1 − w) = 0.
+    let w = (2.0 * m - q1) / (2.0 * q2 + 2.0 * m);
+    if w.is_finite() {
+        w.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
 /// The measured rates (image-mean LDR squared error × seconds) and times so far.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rates {
     /// OMC alone, over the whole image.
     pub omc_alone: f64,
-    /// OMC's part of the mix: its error outside the mask, its direct light's inside.
-    pub omc_in_mix: f64,
-    /// MMLT on α·I.
-    pub mcmc: f64,
+    /// OMC's part of the mix outside the mask: `D + (1 − ε)·I`.
+    pub omc_out: f64,
+    /// OMC's `D + w·I` inside the mask.
+    pub omc_in: Quadratic,
+    /// MMLT on α·I outside the mask (ε·I) and inside it (I).
+    pub mcmc_out: f64,
+    pub mcmc_in: f64,
     /// Seconds OMC and MMLT's chains have rendered so far.
     pub omc_seconds: f64,
     pub mcmc_seconds: f64,
+}
+
+impl Rates {
+    /// The predicted image error after `u` seconds of OMC and `v` of MMLT, with the best OMC
+    /// weight inside the mask, and that weight.
+    pub fn mix_error(&self, u: f64, v: f64) -> (f64, f64) {
+        let w = omc_weight(self.omc_in, u, self.mcmc_in, v);
+        let err = (self.omc_out + self.omc_in.at(w)) / u
+            + (self.mcmc_out + (1.0 - w) * (1.0 - w) * self.mcmc_in) / v;
+        (err, w)
+    }
 }
 
 /// The choice, with the predicted image errors of each option it weighed.
@@ -51,30 +112,46 @@ pub struct Decision {
     pub predicted_omc: f64,
     /// The mix's, at its best split.
     pub predicted_mix: f64,
+    /// The OMC weight inside the mask that the prediction assumed.
+    pub omc_weight: f64,
 }
+
+/// Splits tried between rendering no more MMLT and rendering only MMLT.
+const SPLIT_STEPS: usize = 256;
 
 /// Decide how `remaining` seconds are spent.
 pub fn decide(r: &Rates, remaining: f64) -> Decision {
     let remaining = remaining.max(0.0);
-    let finite = |x: f64| {
+    let clean = |x: f64| {
         if x.is_finite() {
             x.max(0.0)
         } else {
             f64::INFINITY
         }
     };
-    let (a_alone, a, b) = (finite(r.omc_alone), finite(r.omc_in_mix), finite(r.mcmc));
-    let predicted_omc = a_alone / (r.omc_seconds + remaining);
-    let total = r.omc_seconds + r.mcmc_seconds + remaining;
-    let v = if b == 0.0 {
-        r.mcmc_seconds
-    } else if a == 0.0 || !a.is_finite() {
-        total
-    } else {
-        total * b.sqrt() / (a.sqrt() + b.sqrt())
+    let r = Rates {
+        omc_alone: clean(r.omc_alone),
+        omc_out: clean(r.omc_out),
+        omc_in: Quadratic(
+            r.omc_in
+                .0
+                .map(|c| if c.is_finite() { c } else { f64::INFINITY }),
+        ),
+        mcmc_out: clean(r.mcmc_out),
+        mcmc_in: clean(r.mcmc_in),
+        ..*r
     };
-    let more = (v - r.mcmc_seconds).clamp(0.0, remaining);
-    let predicted_mix = a / (r.omc_seconds + remaining - more) + b / (r.mcmc_seconds + more);
+    let predicted_omc = r.omc_alone / (r.omc_seconds + remaining);
+    // OMC keeps some time: it renders the direct light everywhere.
+    let (mut best, mut more) = ((f64::INFINITY, 0.0), 0.0);
+    for k in 0..SPLIT_STEPS {
+        let m = remaining * k as f64 / SPLIT_STEPS as f64;
+        let e = r.mix_error(r.omc_seconds + remaining - m, r.mcmc_seconds + m);
+        if e.0 < best.0 {
+            (best, more) = (e, m);
+        }
+    }
+    let (predicted_mix, omc_weight) = best;
     let choice = if predicted_mix < predicted_omc {
         Choice::Mix { mcmc_seconds: more }
     } else {
@@ -84,6 +161,7 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
         choice,
         predicted_omc,
         predicted_mix,
+        omc_weight,
     }
 }
 
@@ -91,45 +169,77 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
 mod tests {
     use super::*;
 
-    fn rates(omc_alone: f64, omc_in_mix: f64, mcmc: f64) -> Rates {
+    /// OMC with no correlation between D and I inside the mask: `q(w) = d + w²·i`.
+    fn rates(omc_alone: f64, omc_out: f64, d: f64, i: f64, mcmc_in: f64) -> Rates {
         Rates {
             omc_alone,
-            omc_in_mix,
-            mcmc,
+            omc_out,
+            omc_in: Quadratic([d, 0.0, i]),
+            mcmc_out: 0.0,
+            mcmc_in,
             omc_seconds: 2.0,
             mcmc_seconds: 1.0,
         }
     }
 
     #[test]
+    fn the_quadratic_goes_through_its_three_points() {
+        let q = Quadratic::through(3.0, 5.0, 11.0);
+        for (w, e) in [(0.0, 3.0), (0.5, 5.0), (1.0, 11.0)] {
+            assert!((q.at(w) - e).abs() < 1e-12, "{w}: {}", q.at(w));
+        }
+    }
+
+    #[test]
+    fn equal_errors_are_weighed_half_and_half_and_the_pair_beats_either() {
+        // OMC's indirect error 4 over 2 s, MMLT's 2 over 1 s: equal at these times.
+        let q = Quadratic([0.0, 0.0, 4.0]);
+        let w = omc_weight(q, 2.0, 2.0, 1.0);
+        assert!((w - 0.5).abs() < 1e-12, "{w}");
+        // Inverse-variance weighting: half of either error.
+        let e = q.at(w) / 2.0 + (1.0 - w) * (1.0 - w) * 2.0 / 1.0;
+        assert!((e - 1.0).abs() < 1e-12, "{e}");
+        // An MMLT far better than OMC takes (almost) all of it: eq. (2).
+        assert!(omc_weight(q, 2.0, 0.01, 1.0) < 0.01);
+        // Nothing measured: eq. (2).
+        assert_eq!(omc_weight(Quadratic::default(), 1.0, 0.0, 1.0), 0.0);
+    }
+
+    #[test]
     fn the_split_minimises_the_predicted_error() {
-        let r = rates(100.0, 10.0, 40.0);
+        // OMC outside the mask 10, inside it 30 (all indirect), MMLT 5 inside; 27 s left.
+        let r = rates(40.0, 10.0, 0.0, 30.0, 5.0);
         let d = decide(&r, 27.0);
         let Choice::Mix { mcmc_seconds } = d.choice else {
             panic!("{d:?}");
         };
-        // √40 / (√10 + √40) = 2/3 of the 30 s in all go to MMLT.
-        assert!((1.0 + mcmc_seconds - 20.0).abs() < 1e-9, "{mcmc_seconds}");
-        let err = |m: f64| 10.0 / (2.0 + 27.0 - m) + 40.0 / (1.0 + m);
-        for m in [mcmc_seconds - 1.0, mcmc_seconds + 1.0] {
-            assert!(err(m) > d.predicted_mix);
+        assert!(mcmc_seconds > 0.5 && mcmc_seconds < 26.5, "{mcmc_seconds}");
+        let err = |m: f64| r.mix_error(2.0 + 27.0 - m, 1.0 + m).0;
+        for m in [mcmc_seconds - 0.5, mcmc_seconds + 0.5] {
+            assert!(
+                err(m) > d.predicted_mix,
+                "{m}: {} ≤ {}",
+                err(m),
+                d.predicted_mix
+            );
         }
-        assert!((d.predicted_omc - 100.0 / 29.0).abs() < 1e-12);
+        assert!((d.predicted_omc - 40.0 / 29.0).abs() < 1e-12);
+        // The weighed pair inside the mask predicts less than OMC alone.
+        assert!(d.predicted_mix < d.predicted_omc);
+        assert!(d.omc_weight > 0.0 && d.omc_weight < 1.0, "{}", d.omc_weight);
     }
 
     #[test]
     fn omc_alone_when_mmlt_costs_more_than_it_saves() {
-        // Mixing removes little OMC error (9 of 10) at a high MMLT rate.
-        let d = decide(&rates(10.0, 9.0, 50.0), 27.0);
-        assert_eq!(d.choice, Choice::OmcOnly);
-        // And MMLT that removes no OMC error, however cheap.
-        let d = decide(&rates(10.0, 10.0, 0.0), 27.0);
-        assert_eq!(d.choice, Choice::OmcOnly);
+        // MMLT's ε·I outside the mask costs more than its (poor) estimate inside saves.
+        let mut r = rates(10.0, 9.0, 0.0, 1.0, 50.0);
+        r.mcmc_out = 20.0;
+        assert_eq!(decide(&r, 27.0).choice, Choice::OmcOnly);
     }
 
     #[test]
     fn unmeasurable_rates_never_win() {
-        let d = decide(&rates(10.0, 5.0, f64::NAN), 20.0);
+        let d = decide(&rates(10.0, 5.0, 0.0, 5.0, f64::NAN), 20.0);
         assert_eq!(d.choice, Choice::OmcOnly);
     }
 }

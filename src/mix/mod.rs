@@ -79,8 +79,11 @@ impl From<Method> for Partner {
 /// The candidates of `--omc auto`. LT is left out: BPT holds its strategies under MIS, and LT
 /// alone was never the best method on any of the study's scenes (docs/results/report.md).
 const CANDIDATES: [Method; 3] = [Method::Pt, Method::Ibpt, Method::Bpt];
-/// Each candidate's pilot, as a share of the budget; the winner's passes are kept.
+/// Each candidate's pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the
+/// winner's passes are kept, the others' are lost. The ranking needs a few passes of each (BPT
+/// renders about 5 a second at 256² on two cores), not a share that grows with the budget.
 const PARTNER_PILOT: f64 = 0.03;
+const PARTNER_PILOT_MAX: f64 = 2.0;
 /// Passes the measured job's snapshot has before a quarter of the budget may end it.
 const MIN_MASK_SPP: u64 = 16;
 /// MMLT's pilot after its start-up, as a share of the budget; its chains go on if MMLT is kept.
@@ -378,7 +381,7 @@ fn pick_partner(job: &Job, w: usize, h: usize) -> (Method, Halved, Vec<(Method, 
         let label = format!("mix: pilot of {}", m.name());
         // Two passes at least: the halves need one each.
         r.render(job, m, Budget::Passes(2), u64::MAX, &label);
-        let more = PARTNER_PILOT * job.s.seconds - r.even.seconds;
+        let more = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX) - r.even.seconds;
         if more > 0.0 && !r.even.partial {
             r.render(job, m, Budget::Seconds(more), u64::MAX, &label);
         }

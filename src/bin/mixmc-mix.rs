@@ -155,8 +155,13 @@ fn main() -> ExitCode {
             .image
             .text_attr("mixmc.b_source")
             .map_or(String::new(), |src| format!(", b from {src}"));
+        let weight = if m.reasons.omc_weight > 0.0 {
+            format!(", OMC weight {:.2} in the mask", m.reasons.omc_weight)
+        } else {
+            String::new()
+        };
         let how = format!(
-            "{:.2}% complex pixels{}, {}{b}",
+            "{:.2}% complex pixels{}, {}{b}{weight}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

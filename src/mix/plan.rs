@@ -19,6 +19,22 @@
 //! the switch the job renders MCMC alone without asking: there a short pilot misjudges both
 //! methods (module `mix`).
 
+use crate::integrators::Method;
+
+/// Why the job rendered what it did, as data: the header (`mixmc.omc_rates`, `mixmc.rate.*`,
+/// `mixmc.predicted.*`, `mixmc.omc_weight`) is written from it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Reasons {
+    /// Each candidate partner's measured error rate (`--omc auto`; empty for a given partner).
+    pub partner_rates: Vec<(Method, f64)>,
+    /// MMLT's pilot's rates and what they decided (the measured split, below the switch, with
+    /// a mask that marks pixels).
+    pub decision: Option<(Decision, Rates)>,
+    /// The weight of OMC's indirect light inside the mask in the composite; MMLT's is 1 minus
+    /// it (0: eq. (2)).
+    pub omc_weight: f64,
+}
+
 /// What the rest of the budget goes to.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Choice {

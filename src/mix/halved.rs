@@ -1,0 +1,189 @@
+//! The main job's measurements of its own renders: an OMC render kept as two independent
+//! halves (its even and odd passes), and the errors of each part of the mix estimated from both
+//! renders' halves (`estimate`), split at the mask.
+
+use super::Job;
+use super::estimate::{Halves, MixHalf, add, film_means, smooth, weight_in_mask};
+use super::plan::Quadratic;
+use crate::film::{DepthTally, Film};
+use crate::integrators::Method;
+use crate::mmlt::MmltRun;
+use crate::render::{Budget, Rendered, continue_passes};
+
+/// An OMC render kept as two independent halves, its even and its odd passes, whose difference
+/// estimates its error (`estimate`).
+pub(super) struct Halved {
+    /// The even passes; `passes` and `seconds` count both halves.
+    pub(super) even: Rendered,
+    pub(super) odd: Film,
+}
+
+impl Halved {
+    /// An empty render whose passes are tallied by depth (`DepthTally`, every pixel weight 1).
+    pub(super) fn new(w: usize, h: usize, max_depth: u32) -> Halved {
+        let mut r = Halved {
+            even: Rendered::empty(w, h),
+            odd: Film::new(w, h),
+        };
+        r.tally_from_now(None, max_depth);
+        r
+    }
+
+    /// Tally the passes from here on afresh, with these pixel weights.
+    pub(super) fn tally_from_now(&mut self, weight: Option<std::sync::Arc<[f32]>>, max_depth: u32) {
+        let t = DepthTally::new(weight, max_depth);
+        self.even.film.tally = Some(t.empty());
+        self.odd.tally = Some(t);
+    }
+
+    /// The per-depth sums of the passes since the tally began.
+    pub(super) fn tally(&self) -> Vec<f64> {
+        let sums = |f: &Film| f.tally.as_ref().map_or(Vec::new(), |t| t.sums().to_vec());
+        let (a, b) = (sums(&self.even.film), sums(&self.odd));
+        a.iter().zip(&b).map(|(x, y)| x + y).collect()
+    }
+
+    /// Go on with passes of `method` until `budget` is spent or the render holds `cap` passes.
+    pub(super) fn render(
+        &mut self,
+        job: &Job,
+        method: Method,
+        budget: Budget,
+        cap: u64,
+        label: &str,
+    ) {
+        let (scene, s) = (job.scene, job.s);
+        let odd = &mut self.odd;
+        let prev = std::mem::replace(&mut self.even, Rendered::empty(0, 0));
+        self.even = continue_passes(prev, budget, cap, label, s.quiet, |i, film| {
+            let film = if i % 2 == 0 { film } else { &mut *odd };
+            method.render_pass(scene, s.max_depth, s.seed, i, film)
+        });
+    }
+
+    /// The whole render: both halves' sums.
+    pub(super) fn whole(&self) -> Rendered {
+        let mut film = self.even.film.clone();
+        film.accumulate(&self.odd);
+        Rendered {
+            film,
+            passes: self.even.passes,
+            seconds: self.even.seconds,
+            rays: self.even.rays,
+            partial: self.even.partial,
+        }
+    }
+
+    /// Per pixel, the estimated LDR squared error of `D + (1 − w)·I` for the pixel's weight `w`
+    /// of indirect light left to MMLT (none: the beauty), linearised at the smoothed beauty.
+    pub(super) fn errors(&self, mcmc_weight: Option<&[f32]>) -> Vec<f64> {
+        let n = self.even.passes;
+        let (na, nb) = (n.div_ceil(2), n / 2);
+        if nb == 0 {
+            return vec![f64::INFINITY; self.odd.direct.len()];
+        }
+        let (da, ia) = film_means(&self.even.film, na);
+        let (db, ib) = film_means(&self.odd, nb);
+        let level = self.level();
+        let part = |dv: &[[f32; 3]], iv: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            dv.iter()
+                .zip(iv)
+                .enumerate()
+                .map(|(p, (x, y))| {
+                    let k = 1.0 - mcmc_weight.map_or(0.0, |w| w[p]);
+                    std::array::from_fn(|c| x[c] + k * y[c])
+                })
+                .collect()
+        };
+        let (a, b) = (part(&da, &ia), part(&db, &ib));
+        Halves {
+            a: &a,
+            b: &b,
+            wa: na as f64,
+            wb: nb as f64,
+        }
+        .ldr_error(&level)
+    }
+
+    /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
+    /// render's halves and MMLT's (`estimate::weight_in_mask`).
+    pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> f64 {
+        let n = self.even.passes;
+        let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
+        let (db, ib) = film_means(&self.odd, (n / 2).max(1));
+        let [ma, mb] = run.halves();
+        let inside: Vec<bool> = alpha
+            .iter()
+            .map(|a| crate::composite::is_complex(*a))
+            .collect();
+        let half = |direct, indirect, mcmc| MixHalf {
+            direct,
+            indirect,
+            mcmc,
+        };
+        weight_in_mask([half(&da, &ia, &ma), half(&db, &ib, &mb)], &inside)
+    }
+
+    /// The means of each half's beauty (D + I).
+    pub(super) fn beauty_halves(&self) -> [Vec<[f32; 3]>; 2] {
+        let n = self.even.passes;
+        let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
+        let (db, ib) = film_means(&self.odd, (n / 2).max(1));
+        [add(&da, &ia), add(&db, &ib)]
+    }
+
+    /// The smoothed beauty: where MMLT's error is linearised too.
+    pub(super) fn level(&self) -> Vec<[f32; 3]> {
+        let whole = self.whole();
+        let (d, i) = film_means(&whole.film, whole.passes);
+        smooth(&add(&d, &i), whole.film.width, whole.film.height)
+    }
+}
+
+pub(super) fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The estimated image-mean LDR squared errors of each part of the mix as the renders stand,
+/// split at the mask: every pixel counts towards the mean, only its own part's sum.
+pub(super) struct Errors {
+    /// OMC's beauty, the whole image.
+    pub(super) omc_alone: f64,
+    /// OMC's `D + (1 − ε)·I` outside the mask.
+    pub(super) omc_out: f64,
+    /// OMC's `D + w·I` inside it, as a function of `w`.
+    pub(super) omc_in: Quadratic,
+    /// MMLT's α·I outside the mask and inside it.
+    pub(super) mcmc_out: f64,
+    pub(super) mcmc_in: f64,
+}
+
+impl Errors {
+    pub(super) fn measure(omc: &Halved, run: &MmltRun, alpha: &[f32]) -> Errors {
+        let n = alpha.len().max(1) as f64;
+        let inside = |p: usize| crate::composite::is_complex(alpha[p]);
+        let sums = |e: &[f64]| {
+            e.iter().enumerate().fold([0.0; 2], |mut s, (p, x)| {
+                s[inside(p) as usize] += x / n;
+                s
+            })
+        };
+        // OMC's indirect light at weight w inside the mask; MMLT's weight is 1 − w.
+        let at = |w: f32| {
+            let mcmc_weight: Vec<f32> = (0..alpha.len())
+                .map(|p| if inside(p) { 1.0 - w } else { alpha[p] })
+                .collect();
+            sums(&omc.errors(Some(&mcmc_weight)))
+        };
+        let (at0, at_half, at1) = (at(0.0), at(0.5), at(1.0));
+        let [a, b] = run.halves();
+        let mcmc = sums(&Halves::equal(&a, &b).ldr_error(&omc.level()));
+        Errors {
+            omc_alone: mean(&omc.errors(None)),
+            omc_out: at0[0],
+            omc_in: Quadratic::through(at0[1], at_half[1], at1[1]),
+            mcmc_out: mcmc[0],
+            mcmc_in: mcmc[1],
+        }
+    }
+}

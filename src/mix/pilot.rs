@@ -1,0 +1,100 @@
+//! The main job's pilots: short renders whose measured errors decide the OMC partner and, once
+//! the mask exists, the split (`plan`). Each pilot's work is kept where its method goes on.
+
+use super::estimate::{Halves, missing_light};
+use super::halved::{Errors, Halved, mean};
+use super::plan::{Decision, Quadratic, Rates, decide};
+use super::{Job, MCMC_PILOT};
+use crate::integrators::Method;
+use crate::mmlt::{MmltRun, MmltSettings};
+use crate::render::Budget;
+
+/// The candidates of `--omc auto`. LT is left out: BPT holds its strategies under MIS, and LT
+/// alone was never the best method on any of the study's scenes (docs/results/report.md).
+const CANDIDATES: [Method; 3] = [Method::Pt, Method::Ibpt, Method::Bpt];
+/// Each candidate's pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the
+/// winner's passes are kept, the others' are lost. The ranking needs a few passes of each (BPT
+/// renders about 5 a second at 256² on two cores), not a share that grows with the budget.
+const PARTNER_PILOT: f64 = 0.03;
+const PARTNER_PILOT_MAX: f64 = 2.0;
+
+/// Pilots of each candidate for a share of the budget; the one with the smallest error rate
+/// wins and keeps its passes. A candidate's error is its variance's plus the light it has
+/// missing against BPT's pilot (`estimate::missing_light`; BPT holds every strategy, so it
+/// misses least). Returns the winner and every candidate's rate.
+pub(super) fn partner(job: &Job) -> (Method, Halved, Vec<(Method, f64)>) {
+    let (w, h) = (job.w, job.h);
+    let mut pilots = Vec::new();
+    for m in CANDIDATES {
+        let mut r = Halved::new(w, h, job.s.max_depth);
+        let label = format!("mix: pilot of {}", m.name());
+        // Two passes at least: the halves need one each.
+        r.render(job, m, Budget::Passes(2), u64::MAX, &label);
+        let more = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX) - r.even.seconds;
+        if more > 0.0 && !r.even.partial {
+            r.render(job, m, Budget::Seconds(more), u64::MAX, &label);
+        }
+        let interrupted = r.even.partial;
+        pilots.push((m, r));
+        if interrupted {
+            break;
+        }
+    }
+    let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
+    let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
+    let halves = |i: usize| {
+        let n = pilots[i].1.even.passes;
+        Halves {
+            a: &beauties[i][0],
+            b: &beauties[i][1],
+            wa: n.div_ceil(2) as f64,
+            wb: (n / 2).max(1) as f64,
+        }
+    };
+    let rates: Vec<(Method, f64)> = (0..pilots.len())
+        .map(|i| {
+            let (m, r) = (&pilots[i].0, &pilots[i].1);
+            let level = r.level();
+            let missing = match reference {
+                Some(k) if k != i => missing_light(&halves(i), &halves(k), &level, w, h),
+                _ => 0.0,
+            };
+            (*m, (mean(&r.errors(None)) + missing) * r.even.seconds)
+        })
+        .collect();
+    let best = (0..rates.len())
+        .min_by(|&a, &b| rates[a].1.total_cmp(&rates[b].1))
+        .unwrap_or(0);
+    let (m, r) = pilots.swap_remove(best);
+    (m, r, rates)
+}
+
+/// MMLT's pilot on α·I: its start-up (bounded by half of what is left), then a share of rounds,
+/// in two independent halves of chains; then the decision from both renders' measured rates.
+/// The run goes on if the job mixes.
+pub(super) fn mcmc<'a>(
+    job: &Job<'a>,
+    omc: &Halved,
+    alpha: &'a [f32],
+    settings: &MmltSettings,
+) -> (MmltRun<'a>, Decision, Rates) {
+    let settings = MmltSettings {
+        budget: Budget::Seconds(0.5 * job.left().max(1e-3)),
+        ..settings.clone()
+    };
+    let mut run = MmltRun::start(job.scene, Some(alpha), &settings, 2);
+    run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
+    let e = Errors::measure(omc, &run, alpha);
+    let (u, v) = (omc.even.seconds, run.result().chain_seconds);
+    let rates = Rates {
+        omc_alone: e.omc_alone * u,
+        omc_out: e.omc_out * u,
+        omc_in: Quadratic(e.omc_in.0.map(|c| c * u)),
+        mcmc_out: e.mcmc_out * v,
+        mcmc_in: e.mcmc_in * v,
+        omc_seconds: u,
+        mcmc_seconds: v,
+    };
+    let d = decide(&rates, job.left());
+    (run, d, rates)
+}

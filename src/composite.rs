@@ -86,7 +86,7 @@ pub struct Options {
     pub switch: f64,
     /// Inside the mask, the weight `k` of OMC's indirect light, MMLT's getting `1 − k`: both
     /// estimate `I` there, and when their errors are alike the weighed pair beats either (the main
-    /// job measures `k`, `mix::plan`). 0 is eq. (2).
+    /// job measures `k`, `mix::estimate::weight_in_mask`). 0 is eq. (2).
     pub omc_weight: f32,
 }
 

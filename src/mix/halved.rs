@@ -75,8 +75,9 @@ impl Halved {
     }
 
     /// Per pixel, the estimated LDR squared error of `D + (1 − w)·I` for the pixel's weight `w`
-    /// of indirect light left to MMLT (none: the beauty), linearised at the smoothed beauty.
-    pub(super) fn errors(&self, mcmc_weight: Option<&[f32]>) -> Vec<f64> {
+    /// of indirect light left to MMLT (none: the beauty), linearised at `level` (the smoothed
+    /// beauty, `level()`: the caller computes it once for all the weights it asks about).
+    pub(super) fn errors(&self, mcmc_weight: Option<&[f32]>, level: &[[f32; 3]]) -> Vec<f64> {
         let n = self.even.passes;
         let (na, nb) = (n.div_ceil(2), n / 2);
         if nb == 0 {
@@ -84,7 +85,6 @@ impl Halved {
         }
         let (da, ia) = film_means(&self.even.film, na);
         let (db, ib) = film_means(&self.odd, nb);
-        let level = self.level();
         let part = |dv: &[[f32; 3]], iv: &[[f32; 3]]| -> Vec<[f32; 3]> {
             dv.iter()
                 .zip(iv)
@@ -102,7 +102,7 @@ impl Halved {
             wa: na as f64,
             wb: nb as f64,
         }
-        .ldr_error(&level)
+        .ldr_error(level)
     }
 
     /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
@@ -168,18 +168,19 @@ impl Errors {
                 s
             })
         };
+        let level = omc.level();
         // OMC's indirect light at weight w inside the mask; MMLT's weight is 1 − w.
         let at = |w: f32| {
             let mcmc_weight: Vec<f32> = (0..alpha.len())
                 .map(|p| if inside(p) { 1.0 - w } else { alpha[p] })
                 .collect();
-            sums(&omc.errors(Some(&mcmc_weight)))
+            sums(&omc.errors(Some(&mcmc_weight), &level))
         };
         let (at0, at_half, at1) = (at(0.0), at(0.5), at(1.0));
         let [a, b] = run.halves();
-        let mcmc = sums(&Halves::equal(&a, &b).ldr_error(&omc.level()));
+        let mcmc = sums(&Halves::equal(&a, &b).ldr_error(&level));
         Errors {
-            omc_alone: mean(&omc.errors(None)),
+            omc_alone: mean(&omc.errors(None, &level)),
             omc_out: at0[0],
             omc_in: Quadratic::through(at0[1], at_half[1], at1[1]),
             mcmc_out: mcmc[0],

@@ -61,7 +61,10 @@ pub(super) fn partner(job: &Job) -> (Method, Halved, Vec<(Method, f64)>) {
                 Some(k) if k != i => missing_light(&halves(i), &halves(k), &level, w, h),
                 _ => 0.0,
             };
-            (*m, (mean(&r.errors(None)) + missing) * r.even.seconds)
+            (
+                *m,
+                (mean(&r.errors(None, &level)) + missing) * r.even.seconds,
+            )
         })
         .collect();
     let best = (0..rates.len())

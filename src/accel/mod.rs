@@ -1,18 +1,22 @@
 //! Ray queries over triangles: an 8-wide BVH whose nodes hold their eight children's boxes, and
 //! whose leaves hold triangles eight at a time, so one SIMD pass (`lanes::F8`, an AVX register
 //! on x86-64) tests eight boxes or eight triangles. The tree is obvhs' binary BVH (PLOC build
-//! with reinsertion and leaf collapsing) with two of every three levels folded away. Chosen by
-//! measurement over obvhs' own BVH2 and CWBVH traversals, a hand-written binned-SAH BVH2 and
-//! the same fold to 4 wide: see BENCHMARKS.md, "Ray queries (BVH)", and `benches/bvh`.
+//! with reinsertion) folded until each node has eight children, with every subtree of at most
+//! eight triangles made one block. Chosen by measurement over obvhs' own BVH2 and CWBVH
+//! traversals, a hand-written binned-SAH BVH2, the same fold to 4 wide, and sixteen-wide nodes
+//! and blocks on AVX-512 (slower: BENCHMARKS.md, "Ray queries on AVX-512"); see also "Ray
+//! queries (BVH)" and `benches/bvh`.
 
 mod lanes;
 
 use crate::math::Vec3;
 use lanes::{F8, M8};
 use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::bvh2::{Bvh2, node::Bvh2Node};
 use obvhs::triangle::Triangle;
+use std::mem::MaybeUninit;
 use std::time::Duration;
 
 /// A ray with unit or non-unit direction; `t` is measured in units of `dir`.
@@ -43,7 +47,7 @@ const MAX_LEAF_BLOCKS: usize = 1 << (31 - COUNT_SHIFT);
 /// this many never need more blocks than a leaf reference can name (33.5 M).
 pub const MAX_TRIANGLES: usize = FIRST_MASK as usize;
 
-/// Children and triangles per node and block: the SIMD width.
+/// Children per node and triangles per block: the SIMD width.
 const W: usize = F8::LANES;
 
 /// Eight children's boxes, one lane each; unused lanes have `child` = `EMPTY`.
@@ -91,11 +95,7 @@ impl Query {
         Query {
             o: [F8::splat(o.x), F8::splat(o.y), F8::splat(o.z)],
             d: [F8::splat(d.x), F8::splat(d.y), F8::splat(d.z)],
-            inv: [
-                F8::splat(inv(d.x)),
-                F8::splat(inv(d.y)),
-                F8::splat(inv(d.z)),
-            ],
+            inv: [inv(d.x), inv(d.y), inv(d.z)].map(F8::splat),
         }
     }
 }
@@ -105,18 +105,28 @@ impl Query {
 const SLAB_WIDEN: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 impl Node {
-    fn empty() -> Node {
+    fn new(boxes: &[Aabb], children: &[u32]) -> Node {
+        let (mut lo, mut hi) = ([[0.0; W]; 3], [[0.0; W]; 3]);
+        let mut child = [EMPTY; W];
+        for (lane, (aabb, &c)) in boxes.iter().zip(children).enumerate() {
+            for a in 0..3 {
+                lo[a][lane] = aabb.min[a];
+                hi[a][lane] = aabb.max[a];
+            }
+            child[lane] = c;
+        }
         Node {
-            lo: [F8::zero(); 3],
-            hi: [F8::zero(); 3],
-            child: [EMPTY; W],
+            lo: lo.map(F8::from_array),
+            hi: hi.map(F8::from_array),
+            child,
         }
     }
 
     /// Entry distances of the eight boxes and a bit per lane whose box the ray meets in
-    /// [0, t_max].
+    /// [0, t_max]: the distances as an array, not a vector, since indexing a SIMD register by
+    /// a run-time lane compiles to a jump table, an indirect jump per read.
     #[inline(always)]
-    fn intersect(&self, q: &Query, t_max: f32) -> (u32, F8) {
+    fn intersect(&self, q: &Query, t_max: f32) -> (u32, [f32; W]) {
         let mut near = F8::zero();
         let mut far = F8::splat(t_max);
         for a in 0..3 {
@@ -125,7 +135,10 @@ impl Node {
             near = near.max(t0.min(t1));
             far = far.min(t0.max(t1));
         }
-        (near.le(far * F8::splat(SLAB_WIDEN)).bitmask(), near)
+        (
+            near.le(far * F8::splat(SLAB_WIDEN)).bitmask(),
+            near.to_array(),
+        )
     }
 }
 
@@ -197,22 +210,44 @@ struct Builder<'a> {
     nodes: Vec<Node>,
     blocks: Vec<Block>,
     prims: Vec<u32>,
+    /// Triangles under each binary node.
+    counts: Vec<u32>,
 }
 
 impl Builder<'_> {
-    /// The child reference for binary node `i` and the depth of the 4-wide subtree under it.
+    fn count(bvh2: &Bvh2, i: usize, counts: &mut [u32]) -> u32 {
+        let n = &bvh2.nodes[i];
+        counts[i] = if n.is_leaf() {
+            n.prim_count
+        } else {
+            let first = n.first_index as usize;
+            Self::count(bvh2, first, counts) + Self::count(bvh2, first + 1, counts)
+        };
+        counts[i]
+    }
+
+    /// Whether binary node `i` becomes an inner node of the wide tree. A subtree of at most
+    /// eight triangles is one block, one test: obvhs collapses leaves by its own cost model,
+    /// made for one triangle per test, which leaves about four triangles to a block.
+    fn opens(&self, i: usize) -> bool {
+        !self.bvh2.nodes[i].is_leaf() && self.counts[i] as usize > W
+    }
+
+    /// The child reference for binary node `i` and the depth of the wide subtree under it.
     fn child(&mut self, i: usize) -> (u32, usize) {
-        let n = &self.bvh2.nodes[i];
-        if n.is_leaf() {
-            return (self.leaf(n), 0);
+        if !self.opens(i) {
+            let mut prims = Vec::new();
+            self.gather(i, &mut prims);
+            return (self.leaf(&prims), 0);
         }
-        // Open the largest inner child until there are eight: the surface area heuristic's
+        // Open the largest child that opens until there are W: the surface area heuristic's
         // choice of which boxes are worth testing together.
-        let mut kids = vec![n.first_index as usize, n.first_index as usize + 1];
+        let first = self.bvh2.nodes[i].first_index as usize;
+        let mut kids = vec![first, first + 1];
         while kids.len() < W {
             let area = |k: usize| self.bvh2.nodes[k].aabb().half_area();
             let Some(j) = (0..kids.len())
-                .filter(|&j| !self.bvh2.nodes[kids[j]].is_leaf())
+                .filter(|&j| self.opens(kids[j]))
                 .max_by(|&a, &b| area(kids[a]).total_cmp(&area(kids[b])))
             else {
                 break;
@@ -221,33 +256,33 @@ impl Builder<'_> {
             kids[j] = first;
             kids.push(first + 1);
         }
-        let slot = self.nodes.len();
-        self.nodes.push(Node::empty());
-        let (mut lo, mut hi) = ([[0.0; W]; 3], [[0.0; W]; 3]);
-        let mut child = [EMPTY; W];
+        let boxes: Vec<Aabb> = kids.iter().map(|&k| *self.bvh2.nodes[k].aabb()).collect();
+        let mut children = Vec::with_capacity(kids.len());
         let mut depth = 0;
-        for (lane, &k) in kids.iter().enumerate() {
-            let aabb = self.bvh2.nodes[k].aabb();
-            for a in 0..3 {
-                lo[a][lane] = aabb.min[a];
-                hi[a][lane] = aabb.max[a];
-            }
+        for &k in &kids {
             let (code, d) = self.child(k);
-            child[lane] = code;
+            children.push(code);
             depth = depth.max(d);
         }
-        self.nodes[slot] = Node {
-            lo: lo.map(F8::from_array),
-            hi: hi.map(F8::from_array),
-            child,
-        };
-        (slot as u32, depth + 1)
+        self.nodes.push(Node::new(&boxes, &children));
+        ((self.nodes.len() - 1) as u32, depth + 1)
     }
 
-    fn leaf(&mut self, n: &Bvh2Node) -> u32 {
-        let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+    /// The triangles under binary node `i`, in the binary tree's order.
+    fn gather(&self, i: usize, out: &mut Vec<u32>) {
+        let n = &self.bvh2.nodes[i];
+        if n.is_leaf() {
+            let range = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+            out.extend_from_slice(&self.bvh2.primitive_indices[range]);
+        } else {
+            self.gather(n.first_index as usize, out);
+            self.gather(n.first_index as usize + 1, out);
+        }
+    }
+
+    fn leaf(&mut self, prims: &[u32]) -> u32 {
         let first = self.blocks.len();
-        for chunk in self.bvh2.primitive_indices[range].chunks(W) {
+        for chunk in prims.chunks(W) {
             let [mut v0, mut e1, mut e2] = [[[0.0; W]; 3]; 3];
             for (lane, &p) in chunk.iter().enumerate() {
                 let [a, b, c] = self.tris[p as usize];
@@ -276,11 +311,60 @@ impl Builder<'_> {
     }
 }
 
-/// A traversal stack on the call stack when the tree is shallow enough (always, for sane
-/// trees), so queries do not allocate; small scenes get a smaller one, since zeroing it is a
-/// measurable part of a query on a few dozen triangles (PT on the Cornell box: 3%).
-const SMALL_STACK: usize = 80;
-const TINY_STACK: usize = 16;
+/// Traversal stack slots on the call stack, enough for any sane tree, so that queries do not
+/// allocate.
+const STACK_SLOTS: usize = 96;
+
+/// A traversal stack of (child reference, entry distance) whose slots are left unwritten until
+/// pushed: zeroing them was 3% of PT on the Cornell box (16 slots) and 2.5% of BPT on the
+/// bathroom (80 slots, a `memset` call per query) in perf profiles.
+struct Stack<'a> {
+    slots: &'a mut [MaybeUninit<(u32, f32)>],
+    len: usize,
+}
+
+impl Stack<'_> {
+    /// Panics past the slots given, which `Bvh::stack_len` sizes for the tree.
+    #[inline(always)]
+    fn push(&mut self, entry: (u32, f32)) {
+        self.slots[self.len].write(entry);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: every slot below `len` was written by `push` (`len` only grows there), and
+        // the entry is `Copy`, so reading it leaves nothing dropped twice.
+        Some(unsafe { self.slots[self.len].assume_init() })
+    }
+}
+
+/// Pushes the children whose boxes the ray meets, farthest first, so the nearest is traversed
+/// next and its hits cull the others.
+#[inline(always)]
+fn push_nearest_last(stack: &mut Stack, mut mask: u32, near: &[f32; W], child: &[u32; W]) {
+    let mut order = [(0u32, 0f32); W];
+    let mut n = 0;
+    while mask != 0 {
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        if child[lane] == EMPTY {
+            continue;
+        }
+        let entry = (child[lane], near[lane]);
+        let mut j = n;
+        while j > 0 && order[j - 1].1 < entry.1 {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = entry;
+        n += 1;
+    }
+    for &entry in &order[..n] {
+        stack.push(entry);
+    }
+}
 
 impl Bvh {
     /// Build over triangles given as vertex triples; hit `prim` indexes this slice. At most
@@ -316,27 +400,32 @@ impl Bvh {
             nodes: Vec::new(),
             blocks: Vec::new(),
             prims: Vec::new(),
+            counts: vec![0; bvh2.nodes.len()],
         };
+        Builder::count(&bvh2, 0, &mut b.counts);
         let (root, depth) = b.child(0);
         Bvh {
             nodes: b.nodes,
             blocks: b.blocks,
             prims: b.prims,
             root,
-            // Each inner node pops one entry and pushes at most eight.
+            // Each inner node pops one entry and pushes at most W.
             stack_len: (W - 1) * depth + 1,
         }
     }
 
-    /// Run `f` with a traversal stack big enough for this tree.
+    /// Run `f` with a traversal stack big enough for this tree, holding the root.
     #[inline(always)]
-    fn with_stack<R>(&self, f: impl FnOnce(&mut [(u32, f32)]) -> R) -> R {
-        if self.stack_len <= TINY_STACK {
-            f(&mut [(0, 0.0); TINY_STACK])
-        } else if self.stack_len <= SMALL_STACK {
-            f(&mut [(0, 0.0); SMALL_STACK])
+    fn with_stack<R>(&self, f: impl FnOnce(Stack) -> R) -> R {
+        let run = |slots| {
+            let mut stack = Stack { slots, len: 0 };
+            stack.push((self.root, 0.0));
+            f(stack)
+        };
+        if self.stack_len <= STACK_SLOTS {
+            run(&mut [const { MaybeUninit::uninit() }; STACK_SLOTS])
         } else {
-            f(&mut vec![(0, 0.0); self.stack_len])
+            run(Vec::with_capacity(self.stack_len).spare_capacity_mut())
         }
     }
 
@@ -352,14 +441,10 @@ impl Bvh {
             return None;
         }
         let q = Query::new(ray);
-        self.with_stack(|stack| {
+        self.with_stack(|mut stack| {
             let mut best_t = t_max;
             let mut best: Option<(usize, usize, f32, f32)> = None;
-            stack[0] = (self.root, 0.0);
-            let mut top = 1;
-            while top > 0 {
-                top -= 1;
-                let (code, t_enter) = stack[top];
+            while let Some((code, t_enter)) = stack.pop() {
                 if t_enter >= best_t {
                     continue;
                 }
@@ -373,33 +458,8 @@ impl Bvh {
                     continue;
                 }
                 let node = &self.nodes[code as usize];
-                let (mut mask, near) = node.intersect(&q, best_t);
-                // An array, not a vector: indexing a SIMD register by a run-time lane compiles
-                // to a jump table, an indirect jump per read.
-                let near = near.to_array();
-                // Push the boxes met, farthest first, so the nearest is traversed next and
-                // its hits cull the others.
-                let mut order = [(0u32, 0f32); W];
-                let mut n = 0;
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    if node.child[lane] == EMPTY {
-                        continue;
-                    }
-                    let entry = (node.child[lane], near[lane]);
-                    let mut j = n;
-                    while j > 0 && order[j - 1].1 < entry.1 {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = entry;
-                    n += 1;
-                }
-                for &entry in &order[..n] {
-                    stack[top] = entry;
-                    top += 1;
-                }
+                let (mask, near) = node.intersect(&q, best_t);
+                push_nearest_last(&mut stack, mask, &near, &node.child);
             }
             best.map(|(b, lane, b1, b2)| Hit {
                 t: best_t,
@@ -416,12 +476,8 @@ impl Bvh {
             return false;
         }
         let q = Query::new(ray);
-        self.with_stack(|stack| {
-            stack[0] = (self.root, 0.0);
-            let mut top = 1;
-            while top > 0 {
-                top -= 1;
-                let code = stack[top].0;
+        self.with_stack(|mut stack| {
+            while let Some((code, _)) = stack.pop() {
                 if code & LEAF != 0 {
                     if Self::leaf_blocks(code).any(|b| self.blocks[b].hits(&q, t_max)) {
                         return true;
@@ -434,8 +490,7 @@ impl Bvh {
                     let lane = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if node.child[lane] != EMPTY {
-                        stack[top] = (node.child[lane], 0.0);
-                        top += 1;
+                        stack.push((node.child[lane], 0.0));
                     }
                 }
             }
@@ -509,6 +564,31 @@ mod tests {
         }
         // The rays must exercise both outcomes for the comparison to mean anything.
         assert!(hits > 200 && hits < 1800, "{hits} hits");
+    }
+
+    #[test]
+    fn a_stack_too_deep_for_the_call_stack_gives_the_same_hits() {
+        let tris = random_tris(500);
+        let bvh = Bvh::new(&tris);
+        let deep = Bvh {
+            nodes: bvh.nodes.clone(),
+            blocks: bvh.blocks.clone(),
+            prims: bvh.prims.clone(),
+            root: bvh.root,
+            stack_len: STACK_SLOTS + 1,
+        };
+        let mut r = Rng::new(3, 0, 0);
+        for _ in 0..500 {
+            let origin = Vec3::new(r.next_1d(), r.next_1d(), r.next_1d()) * 12.0 - 1.0;
+            let d = Vec3::new(r.next_1d() - 0.5, r.next_1d() - 0.5, r.next_1d() - 0.5);
+            let ray = Ray {
+                origin,
+                dir: d.normalize(),
+            };
+            let (a, b) = (bvh.intersect(&ray, 20.0), deep.intersect(&ray, 20.0));
+            assert_eq!(a.map(|h| (h.t, h.prim)), b.map(|h| (h.t, h.prim)));
+            assert_eq!(bvh.occluded(&ray, 20.0), deep.occluded(&ray, 20.0));
+        }
     }
 
     #[test]

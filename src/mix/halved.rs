@@ -10,6 +10,9 @@ use crate::integrators::Method;
 use crate::mmlt::MmltRun;
 use crate::render::{Budget, Rendered, continue_passes};
 
+/// A render's per-pixel mean direct and indirect light.
+type DirectIndirect = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
 /// An OMC render kept as two independent halves, its even and its odd passes, whose difference
 /// estimates its error (`estimate`).
 pub(super) struct Halved {
@@ -74,17 +77,27 @@ impl Halved {
         }
     }
 
+    /// The passes in each half: the even one holds the extra pass of an odd count.
+    pub(super) fn half_passes(&self) -> [u64; 2] {
+        let n = self.even.passes;
+        [n.div_ceil(2), n / 2]
+    }
+
+    /// Each half's means of direct and indirect light (`film_means`).
+    fn half_means(&self) -> [DirectIndirect; 2] {
+        let [na, nb] = self.half_passes();
+        [film_means(&self.even.film, na), film_means(&self.odd, nb)]
+    }
+
     /// Per pixel, the estimated LDR squared error of `D + (1 − w)·I` for the pixel's weight `w`
     /// of indirect light left to MMLT (none: the beauty), linearised at `level` (the smoothed
     /// beauty, `level()`: the caller computes it once for all the weights it asks about).
     pub(super) fn errors(&self, mcmc_weight: Option<&[f32]>, level: &[[f32; 3]]) -> Vec<f64> {
-        let n = self.even.passes;
-        let (na, nb) = (n.div_ceil(2), n / 2);
+        let [na, nb] = self.half_passes();
         if nb == 0 {
             return vec![f64::INFINITY; self.odd.direct.len()];
         }
-        let (da, ia) = film_means(&self.even.film, na);
-        let (db, ib) = film_means(&self.odd, nb);
+        let [(da, ia), (db, ib)] = self.half_means();
         let part = |dv: &[[f32; 3]], iv: &[[f32; 3]]| -> Vec<[f32; 3]> {
             dv.iter()
                 .zip(iv)
@@ -108,9 +121,7 @@ impl Halved {
     /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
     /// render's halves and MMLT's (`estimate::weight_in_mask`).
     pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> f64 {
-        let n = self.even.passes;
-        let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
-        let (db, ib) = film_means(&self.odd, (n / 2).max(1));
+        let [(da, ia), (db, ib)] = self.half_means();
         let [ma, mb] = run.halves();
         let inside: Vec<bool> = alpha
             .iter()
@@ -126,9 +137,7 @@ impl Halved {
 
     /// The means of each half's beauty (D + I).
     pub(super) fn beauty_halves(&self) -> [Vec<[f32; 3]>; 2] {
-        let n = self.even.passes;
-        let (da, ia) = film_means(&self.even.film, n.div_ceil(2));
-        let (db, ib) = film_means(&self.odd, (n / 2).max(1));
+        let [(da, ia), (db, ib)] = self.half_means();
         [add(&da, &ia), add(&db, &ib)]
     }
 

@@ -45,12 +45,12 @@ pub(super) fn partner(job: &Job) -> (Method, Halved, Vec<(Method, f64)>) {
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
     let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
     let halves = |i: usize| {
-        let n = pilots[i].1.even.passes;
+        let [na, nb] = pilots[i].1.half_passes();
         Halves {
             a: &beauties[i][0],
             b: &beauties[i][1],
-            wa: n.div_ceil(2) as f64,
-            wb: (n / 2).max(1) as f64,
+            wa: na as f64,
+            wb: nb.max(1) as f64,
         }
     };
     let rates: Vec<(Method, f64)> = (0..pilots.len())

@@ -11,8 +11,9 @@ use crate::render::Budget;
 
 /// The candidates of `--omc auto`. LT is left out: BPT holds its strategies under MIS. In the
 /// study of 2026-12-02 (docs/results/report.md) LT alone was nonetheless the best single method
-/// on cornell-torus (1–3% ahead of BPT) and at 30 s on cornell-water; a fourth pilot would cost
-/// another 2–3% of the budget, and whether it pays is not measured yet (docs/main-job.md).
+/// on cornell-torus (1–3% ahead of BPT) and at 30 s on cornell-water; as a fourth candidate it
+/// won no pilot on the paper's four scenes (its rate on the torus 1.2–1.35× BPT's) and its pilot
+/// only cost time (docs/main-job.md, fourth round).
 const CANDIDATES: [Method; 3] = [Method::Pt, Method::Ibpt, Method::Bpt];
 /// Each candidate's pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the
 /// winner's passes are kept, the others' are lost. The ranking needs a few passes of each (BPT

@@ -3,7 +3,7 @@
 //! renders' halves (`estimate`), split at the mask.
 
 use super::Job;
-use super::estimate::{Halves, MixHalf, add, film_means, smooth, weight_in_mask};
+use super::estimate::{Halves, MixHalf, add, film_means, smooth, unseen_error, weight_in_mask};
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
@@ -119,20 +119,37 @@ impl Halved {
     }
 
     /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
-    /// render's halves and MMLT's (`estimate::weight_in_mask`).
-    pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> f64 {
+    /// render's halves and MMLT's (`estimate::weight_in_mask`), and MMLT's error inside the
+    /// mask that its halves do not show (`estimate::unseen_error`, against OMC's indirect light).
+    pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
         let [(da, ia), (db, ib)] = self.half_means();
+        let [na, nb] = self.half_passes();
         let [ma, mb] = run.halves();
         let inside: Vec<bool> = alpha
             .iter()
             .map(|a| crate::composite::is_complex(*a))
             .collect();
+        let omc_indirect = Halves {
+            a: &ia,
+            b: &ib,
+            wa: na as f64,
+            wb: nb.max(1) as f64,
+        };
+        let size = (self.odd.width, self.odd.height);
+        let unseen = unseen_error(
+            &Halves::equal(&ma, &mb),
+            &omc_indirect,
+            &self.level(),
+            size,
+            &inside,
+        );
         let half = |direct, indirect, mcmc| MixHalf {
             direct,
             indirect,
             mcmc,
         };
-        weight_in_mask([half(&da, &ia, &ma), half(&db, &ib, &mb)], &inside)
+        let w = weight_in_mask([half(&da, &ia, &ma), half(&db, &ib, &mb)], &inside, unseen);
+        (w, unseen)
     }
 
     /// The means of each half's beauty (D + I).

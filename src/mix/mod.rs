@@ -449,7 +449,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         && measured
         && !partial
     {
-        reasons.omc_weight = omc.weight_in_mask(run, alpha);
+        (reasons.omc_weight, reasons.mcmc_unseen) = omc.weight_in_mask(run, alpha);
     }
 
     // 6. The images, and the composite the choice makes of them.
@@ -571,6 +571,7 @@ fn normalisation(sums: &[f64], passes: u64, min_depth: u32, pixels: usize) -> Op
 /// What the job measured and weighed, so that a user can see why it chose what it did.
 fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.omc_weight", reasons.omc_weight);
+    image.set_float("mixmc.mcmc_unseen", reasons.mcmc_unseen);
     if !reasons.partner_rates.is_empty() {
         let list: Vec<String> = reasons
             .partner_rates

@@ -33,6 +33,9 @@ pub struct Reasons {
     /// The weight of OMC's indirect light inside the mask in the composite; MMLT's is 1 minus
     /// it (0: eq. (2)).
     pub omc_weight: f64,
+    /// MMLT's image-mean error inside the mask that its halves do not show, as the weight was
+    /// chosen (`estimate::unseen_error`; 0 where the job did not mix).
+    pub mcmc_unseen: f64,
 }
 
 /// What the rest of the budget goes to.

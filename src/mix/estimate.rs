@@ -118,8 +118,8 @@ pub fn missing_light(
 /// error of `m`.
 ///
 /// For MMLT inside the mask that error is real: on cornell-torus, runs of 86 mutations/px with
-/// the job's mask shared ≈ 7 of their in-mask error of 13–15 whatever the seed (4.4 of it beyond
-/// the reference's own), while its two groups of chains differed by about 5, and its chains
+/// the job's mask shared ≈ 7.6 of their in-mask error of 13–15 whatever the seed (at least 4.6
+/// of it beyond the reference's own), while its two groups of chains differed by about 5, and its chains
 /// under-visit the light through the glass: the mask's mean 1–3% dark (docs/main-job.md).
 pub fn unseen_error(
     m: &Halves,
@@ -241,7 +241,7 @@ const WEIGHT_STEPS: usize = 20;
 /// The halves' difference is blind to what both of MMLT's halves share: `mcmc_unseen`, its
 /// image-mean error inside the mask beyond its halves ([`unseen_error`]), is added at weight
 /// `(1 − w)²`. Without it the job weighed OMC 0.20–0.25 on cornell-torus, where 0.40–0.50 had
-/// 8–12% less in-mask error against the reference in each of eight runs.
+/// 8–14% less in-mask error against the reference in each of eight runs.
 pub fn weight_in_mask(halves: [MixHalf; 2], inside: &[bool], mcmc_unseen: f64) -> f64 {
     let pixels: Vec<usize> = (0..inside.len()).filter(|&p| inside[p]).collect();
     let at = |p: usize, h: &MixHalf, w: f32| -> [f64; 3] {

@@ -156,7 +156,10 @@ fn main() -> ExitCode {
             .text_attr("mixmc.b_source")
             .map_or(String::new(), |src| format!(", b from {src}"));
         let weight = if m.reasons.omc_weight > 0.0 {
-            format!(", OMC weight {:.2} in the mask", m.reasons.omc_weight)
+            format!(
+                ", OMC weight {:.2} in the mask (MMLT's error there beyond its halves {:.2})",
+                m.reasons.omc_weight, m.reasons.mcmc_unseen
+            )
         } else {
             String::new()
         };

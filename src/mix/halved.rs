@@ -78,9 +78,21 @@ impl Halved {
     }
 
     /// The passes in each half: the even one holds the extra pass of an odd count.
-    pub(super) fn half_passes(&self) -> [u64; 2] {
+    fn half_passes(&self) -> [u64; 2] {
         let n = self.even.passes;
         [n.div_ceil(2), n / 2]
+    }
+
+    /// Two images made from this render's even and odd halves, weighted by their passes (an
+    /// empty odd half counts as one pass, as `film_means` averages it).
+    pub(super) fn as_halves<'a>(&self, a: &'a [[f32; 3]], b: &'a [[f32; 3]]) -> Halves<'a> {
+        let [na, nb] = self.half_passes();
+        Halves {
+            a,
+            b,
+            wa: na as f64,
+            wb: nb.max(1) as f64,
+        }
     }
 
     /// Each half's means of direct and indirect light (`film_means`).
@@ -93,8 +105,7 @@ impl Halved {
     /// of indirect light left to MMLT (none: the beauty), linearised at `level` (the smoothed
     /// beauty, `level()`: the caller computes it once for all the weights it asks about).
     pub(super) fn errors(&self, mcmc_weight: Option<&[f32]>, level: &[[f32; 3]]) -> Vec<f64> {
-        let [na, nb] = self.half_passes();
-        if nb == 0 {
+        if self.half_passes()[1] == 0 {
             return vec![f64::INFINITY; self.odd.direct.len()];
         }
         let [(da, ia), (db, ib)] = self.half_means();
@@ -109,13 +120,7 @@ impl Halved {
                 .collect()
         };
         let (a, b) = (part(&da, &ia), part(&db, &ib));
-        Halves {
-            a: &a,
-            b: &b,
-            wa: na as f64,
-            wb: nb as f64,
-        }
-        .ldr_error(level)
+        self.as_halves(&a, &b).ldr_error(level)
     }
 
     /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
@@ -123,22 +128,15 @@ impl Halved {
     /// mask that its halves do not show (`estimate::unseen_error`, against OMC's indirect light).
     pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
         let [(da, ia), (db, ib)] = self.half_means();
-        let [na, nb] = self.half_passes();
         let [ma, mb] = run.halves();
         let inside: Vec<bool> = alpha
             .iter()
             .map(|a| crate::composite::is_complex(*a))
             .collect();
-        let omc_indirect = Halves {
-            a: &ia,
-            b: &ib,
-            wa: na as f64,
-            wb: nb.max(1) as f64,
-        };
         let size = (self.odd.width, self.odd.height);
         let unseen = unseen_error(
             &Halves::equal(&ma, &mb),
-            &omc_indirect,
+            &self.as_halves(&ia, &ib),
             &self.level(),
             size,
             &inside,

@@ -1,7 +1,7 @@
 //! The main job's pilots: short renders whose measured errors decide the OMC partner and, once
 //! the mask exists, the split (`plan`). Each pilot's work is kept where its method goes on.
 
-use super::estimate::{Halves, missing_light};
+use super::estimate::missing_light;
 use super::halved::{Errors, Halved, mean};
 use super::plan::{Decision, Quadratic, Rates, decide};
 use super::{Job, MCMC_PILOT};
@@ -45,15 +45,7 @@ pub(super) fn partner(job: &Job) -> (Method, Halved, Vec<(Method, f64)>) {
     }
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
     let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
-    let halves = |i: usize| {
-        let [na, nb] = pilots[i].1.half_passes();
-        Halves {
-            a: &beauties[i][0],
-            b: &beauties[i][1],
-            wa: na as f64,
-            wb: nb.max(1) as f64,
-        }
-    };
+    let halves = |i: usize| pilots[i].1.as_halves(&beauties[i][0], &beauties[i][1]);
     let rates: Vec<(Method, f64)> = (0..pilots.len())
         .map(|i| {
             let (m, r) = (&pilots[i].0, &pilots[i].1);

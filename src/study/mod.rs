@@ -165,6 +165,10 @@ pub struct Results {
     pub showcases: Vec<Showcase>,
     /// Stopped early by Ctrl-C: the records hold the runs that finished.
     pub partial: bool,
+    /// Each scene's reference as BPT passes (`mixmc.spp` of a BPT reference), for the error the
+    /// reference itself adds to every row (`report::reference_floor`); scenes of rows from an
+    /// earlier run included.
+    pub reference_passes: Vec<(String, f64)>,
 }
 
 struct Loaded {
@@ -333,6 +337,7 @@ pub fn run(plan: &Plan, quiet: bool, dir: &Path, done: Vec<Record>) -> Result<Re
         records: done,
         showcases: Vec::new(),
         partial: false,
+        reference_passes: Vec::new(),
     };
     let mut counted = 0u64;
     'scenes: for (l, methods) in scenes.iter().zip(&method_lists) {
@@ -400,7 +405,20 @@ pub fn run(plan: &Plan, quiet: bool, dir: &Path, done: Vec<Record>) -> Result<Re
         results.showcases.push(show);
     }
     progress.finish();
+    for scene in report::distinct(results.records.iter().map(|r| r.scene.clone())) {
+        if let Some(n) = reference_passes(plan, &scene) {
+            results.reference_passes.push((scene, n));
+        }
+    }
     Ok(results)
+}
+
+/// The passes of `scene`'s reference where it is a BPT render that says how many it has; none
+/// for a missing file or another method, whose error the study's BPT rows cannot scale.
+fn reference_passes(plan: &Plan, scene: &str) -> Option<f64> {
+    let img = ExrImage::read(&plan.reference_dir.join(format!("{scene}.exr"))).ok()?;
+    let n = img.float_attr("mixmc.spp")?;
+    (img.text_attr("mixmc.method").as_deref() == Some("bpt") && n > 0.0).then_some(n)
 }
 
 /// The paper's Table 1 (MSE in LDR 0–255): (scene, OMC, MMLT, ours, combination).

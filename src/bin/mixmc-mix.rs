@@ -163,8 +163,13 @@ fn main() -> ExitCode {
         } else {
             String::new()
         };
+        let pooled = if m.reasons.pooled.is_empty() {
+            String::new()
+        } else {
+            format!(", pilots pooled {}", m.reasons.pooled)
+        };
         let how = format!(
-            "{:.2}% complex pixels{}, {}{b}{weight}",
+            "{:.2}% complex pixels{}, {}{b}{weight}{pooled}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

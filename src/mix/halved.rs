@@ -19,17 +19,28 @@ pub(super) struct Halved {
     /// The even passes; `passes` and `seconds` count both halves.
     pub(super) even: Rendered,
     pub(super) odd: Film,
+    /// The seed its passes draw from: the job's, and for the partner pilots' winner another
+    /// after its pilot (`reseed`).
+    seed: u64,
 }
 
 impl Halved {
     /// An empty render whose passes are tallied by depth (`DepthTally`, every pixel weight 1).
-    pub(super) fn new(w: usize, h: usize, max_depth: u32) -> Halved {
+    pub(super) fn new(w: usize, h: usize, max_depth: u32, seed: u64) -> Halved {
         let mut r = Halved {
             even: Rendered::empty(w, h),
             odd: Film::new(w, h),
+            seed,
         };
         r.tally_from_now(None, max_depth);
         r
+    }
+
+    /// Draw the passes from here on from `seed`. Passes of one seed and method are the same
+    /// paths whatever renders them; the partner pilots' winner goes on independent of the
+    /// losers' passes, which share its pilot's seed and are pooled with it (`pool`).
+    pub(super) fn reseed(&mut self, seed: u64) {
+        self.seed = seed;
     }
 
     /// Tally the passes from here on afresh, with these pixel weights.
@@ -55,12 +66,12 @@ impl Halved {
         cap: u64,
         label: &str,
     ) {
-        let (scene, s) = (job.scene, job.s);
+        let (scene, s, seed) = (job.scene, job.s, self.seed);
         let odd = &mut self.odd;
         let prev = std::mem::replace(&mut self.even, Rendered::empty(0, 0));
         self.even = continue_passes(prev, budget, cap, label, s.quiet, |i, film| {
             let film = if i % 2 == 0 { film } else { &mut *odd };
-            method.render_pass(scene, s.max_depth, s.seed, i, film)
+            method.render_pass(scene, s.max_depth, seed, i, film)
         });
     }
 

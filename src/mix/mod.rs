@@ -2,14 +2,17 @@
 //!
 //! By default the job measures before it commits. `mix` is a sequence of phases:
 //! 1. the OMC partner: short pilots of PT, IBPT and BPT (`pilot::partner`), the smallest error
-//!    rate wins and keeps its passes;
+//!    rate wins and keeps its passes; the losers' passes are pooled into its image at the end,
+//!    weighed by their measured errors (`pool`);
 //! 2. the snapshot the mask is built from (the paper builds it from an early snapshot, 64–128
-//!    spp, while OMC keeps rendering), and the mask;
+//!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
+//!    that is already above the switch ends the snapshot there;
 //! 3. the plan: a pilot of MMLT on α·I (`pilot::mcmc`) and the decision (`plan`): OMC alone, the
 //!    mix at the split that minimises the predicted error, or, above the mask's switch, MCMC
 //!    alone;
 //! 4. the rest of the budget, as decided;
-//! 5. MMLT's normalisation from the OMC passes, and the weight of OMC's indirect light inside
+//! 5. MMLT's normalisation from the OMC passes (above the switch, the snapshot's and the losing
+//!    pilots' that hold BPT's strategies), and the weight of OMC's indirect light inside
 //!    the mask, where both methods have rendered it (`estimate::weight_in_mask`);
 //! 6. the composite: eq. (2) with that weight.
 //!
@@ -23,6 +26,7 @@ pub mod estimate;
 mod halved;
 mod pilot;
 pub mod plan;
+mod pool;
 
 use crate::composite::{Composite, Input, OmcInput, Options, composite};
 use crate::error::{Error, Result};
@@ -40,6 +44,7 @@ use crate::render::Budget;
 use crate::scene::Scene;
 use halved::Halved;
 use plan::{Choice, Reasons};
+use pool::Pool;
 use std::path::Path;
 use std::time::Instant;
 
@@ -256,44 +261,58 @@ impl<'a> Job<'a> {
     }
 
     /// MMLT's settings for this job: every light path above the switch (MCMC alone), α·I
-    /// otherwise; no BPT passes of its own where b comes from the OMC render (`b_from_omc`).
-    fn mmlt_settings(&self, method: Method, mcmc_only: bool) -> MmltSettings {
+    /// otherwise; no BPT passes of its own where b is `given` by the job's OMC passes.
+    fn mmlt_settings(&self, mcmc_only: bool, given: bool) -> MmltSettings {
         let d = Job::mmlt_defaults(self.s);
         MmltSettings {
             min_depth: if mcmc_only { 0 } else { d.min_depth },
-            b_spp: if self.b_from_omc(method) { 0 } else { d.b_spp },
+            b_spp: if given { 0 } else { d.b_spp },
             ..d
         }
     }
 
-    /// Whether MMLT's b_d comes from the OMC render's passes (`normalisation`): where they hold
-    /// the strategies of MMLT's own estimate. BPT's and IBPT's light tracing finds the caustics
-    /// seen through glass, which PT's and LT's passes see only by chance (PT's b was 4% low on
-    /// the caustic).
+    /// Whether the mix's MMLT b_d comes from the OMC render's passes (`normalisation`): where
+    /// they hold the strategies of MMLT's own estimate. BPT's and IBPT's light tracing finds the
+    /// caustics seen through glass, which PT's and LT's passes see only by chance (PT's b was 4%
+    /// low on the caustic).
     fn b_from_omc(&self, method: Method) -> bool {
-        self.measured() && matches!(method, Method::Bpt | Method::Ibpt)
+        self.measured() && holds_bpt(method)
     }
 
-    /// The OMC render up to the snapshot the mask is built from. It may take the job to half its
-    /// budget at most, whatever the split; the measured job stops at a quarter once it has
-    /// MIN_MASK_SPP passes, as above the switch OMC's time is lost to MCMC alone (a mask of
-    /// fewer passes marks noise: on the bathroom a 5-pass BPT snapshot marked 45%, where LT's of
-    /// 36 passes marked 16%).
-    fn snapshot(&self, method: Method, omc: &mut Halved) {
+    /// The OMC render up to the snapshot the mask is built from, and the mask. The snapshot may
+    /// take the job to half its budget at most, whatever the split; the measured job stops at a
+    /// quarter once it has MIN_MASK_SPP passes, as above the switch OMC's time is lost to MCMC
+    /// alone (a mask of fewer passes marks noise: on the bathroom a 5-pass BPT snapshot marked
+    /// 45%, where LT's of 36 passes marked 16%). For the same reason it masks MIN_MASK_SPP
+    /// passes first and, above the switch there, renders MCMC alone at once: on `stress` 16 PT
+    /// passes mark 100% of the pixels and 64 mark 98.6%; on the other five scenes 16 passes of
+    /// the partner mark 0–25%, none above the switch (docs/main-job.md, sixth round).
+    fn masked_snapshot(
+        &self,
+        method: Method,
+        omc: &mut Halved,
+        image: impl Fn(&Halved) -> ExrImage,
+        dir: &Path,
+    ) -> Result<Masked> {
         let label = format!("mix 1/3: {} (mask snapshot)", method.name());
         let s = self.s;
-        let mut render_to = |end: f64, cap: u64| {
+        let render_to = |omc: &mut Halved, end: f64, cap: u64| {
             let until = end * s.seconds - self.start.elapsed().as_secs_f64();
             if !omc.even.partial && until > 0.0 && omc.even.passes < cap {
                 omc.render(self, method, Budget::Seconds(until), cap, &label);
             }
         };
-        if self.measured() {
-            render_to(0.25, s.mask_spp);
-            render_to(0.5, MIN_MASK_SPP.min(s.mask_spp));
-        } else {
-            render_to(0.5, s.mask_spp);
+        if !self.measured() {
+            render_to(omc, 0.5, s.mask_spp);
+            return self.mask(image(omc), dir);
         }
+        render_to(omc, 0.5, MIN_MASK_SPP.min(s.mask_spp));
+        let early = self.mask(image(omc), dir)?;
+        if early.switched || omc.even.partial || omc.even.passes >= s.mask_spp {
+            return Ok(early);
+        }
+        render_to(omc, 0.25, s.mask_spp);
+        self.mask(image(omc), dir)
     }
 
     /// The mask from the snapshot, as the mask tool would make it from `omc-snapshot.exr`.
@@ -342,13 +361,20 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let measured = job.measured();
     let mut reasons = Reasons::default();
 
-    // 1. The OMC partner: the user's, or the pilots' winner, which keeps its passes.
-    let (method, mut omc) = match s.omc.method() {
-        Some(m) => (m, Halved::new(job.w, job.h, s.max_depth)),
+    // 1. The OMC partner: the user's, or the pilots' winner, which keeps its passes; the losers'
+    // are pooled into its image at the end.
+    let (method, mut omc, pool, rate) = match s.omc.method() {
+        Some(m) => (
+            m,
+            Halved::new(job.w, job.h, s.max_depth, s.seed),
+            Pool::empty(job.w, job.h),
+            f64::NAN,
+        ),
         None => {
-            let (m, r, rates) = pilot::partner(&job);
-            reasons.partner_rates = rates;
-            (m, r)
+            let c = pilot::partner(&job);
+            let rate = c.rate();
+            reasons.partner_rates = c.rates;
+            (c.method, c.render, c.pool, rate)
         }
     };
     let omc_settings = OmcSettings {
@@ -361,18 +387,27 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let gbuf = GBuffer::trace(scene);
 
     // 2. The snapshot and the mask made from it.
-    job.snapshot(method, &mut omc);
-    let masked = job.mask(aov_image(scene, &omc_settings, &omc.whole(), &gbuf), dir)?;
+    let image = |r: &Halved| aov_image(scene, &omc_settings, &r.whole(), &gbuf);
+    let masked = job.masked_snapshot(method, &mut omc, image, dir)?;
     let alpha = masked.mask.alpha.as_slice();
     // The snapshot's depth sums (every pixel weight 1) serve MCMC alone; the mix's α-weighted
     // sums come from the passes after it, which the mask, made from the snapshot, did not see.
-    let snapshot_tally = (omc.tally(), omc.even.passes);
+    let snapshot_passes = omc.even.passes;
+    let snapshot_tally = (omc.tally(), snapshot_passes);
     omc.tally_from_now(Some(alpha.into()), s.max_depth);
 
     // 3. What the rest of the budget goes to. Above the switch MMLT alone renders every light
     // path; in the mix it renders α·I.
     let mcmc_only = measured && masked.switched;
-    let mmlt_settings = job.mmlt_settings(method, mcmc_only);
+    // Above the switch b_d is every pixel's, and any pass that holds BPT's strategies serves:
+    // the snapshot's and the losing pilots'.
+    let switch_b = if mcmc_only {
+        above_switch_b(method, snapshot_tally, &pool)
+    } else {
+        None
+    };
+    let given = switch_b.is_some() || (!mcmc_only && job.b_from_omc(method));
+    let mmlt_settings = job.mmlt_settings(mcmc_only, given);
     let mmlt_alpha = (!mcmc_only).then_some(alpha);
     // MMLT's share under the fixed splits (NaN for the measured one, which decides its own).
     let c = if masked.switched {
@@ -417,7 +452,11 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             omc.render(&job, method, Budget::Seconds(omc_time), u64::MAX, &label);
         }
     }
-    let omc_render = omc.whole();
+    let omc_render = pool.apply(omc.whole(), rate);
+    if choice != Choice::McmcOnly {
+        // Above the switch the image is MMLT's own; the pilots served its b alone.
+        reasons.pooled = pool.describe(omc_render.seconds, rate);
+    }
     let mut partial = omc_render.partial;
     if matches!(choice, Choice::Mix { .. } | Choice::McmcOnly) && !partial {
         let run = mmlt.get_or_insert_with(|| {
@@ -431,17 +470,22 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     }
 
     // 5. MMLT's b from the OMC passes, and OMC's weight inside the mask.
-    if let Some(run) = &mut mmlt
-        && job.b_from_omc(method)
-    {
-        let (sums, passes, source) = if mcmc_only {
-            (snapshot_tally.0, snapshot_tally.1, "snapshot")
-        } else {
-            (omc.tally(), omc.even.passes - snapshot_tally.1, "omc")
-        };
-        if let Some(b) = normalisation(&sums, passes, mmlt_settings.min_depth, job.w * job.h) {
-            run.set_normalisation(b, &format!("{source}:{}:{passes}", method.name()));
+    let b = match switch_b {
+        Some(b) => Some(b),
+        None if !mcmc_only && job.b_from_omc(method) => {
+            let passes = omc.even.passes - snapshot_passes;
+            Some((
+                omc.tally(),
+                passes,
+                format!("omc:{}:{passes}", method.name()),
+            ))
         }
+        None => None,
+    };
+    if let (Some(run), Some((sums, passes, source))) = (&mut mmlt, b)
+        && let Some(b) = normalisation(&sums, passes, mmlt_settings.min_depth, job.w * job.h)
+    {
+        run.set_normalisation(b, &source);
     }
     // Inside the mask OMC's and MMLT's estimates of the indirect light are weighed by their
     // errors as measured at the end (`estimate::weight_in_mask`); the fixed splits keep eq. (2).
@@ -568,10 +612,43 @@ fn normalisation(sums: &[f64], passes: u64, min_depth: u32, pixels: usize) -> Op
     })
 }
 
+/// Whether a method's passes hold every strategy of MMLT's own estimate of b_d (BPT's).
+fn holds_bpt(method: Method) -> bool {
+    matches!(method, Method::Bpt | Method::Ibpt)
+}
+
+/// MMLT's b_d source above the switch (every pixel weight 1): the snapshot's depth sums where
+/// the partner holds BPT's strategies, and the losing pilots' that do; none without such
+/// passes (MMLT renders its own).
+fn above_switch_b(
+    method: Method,
+    (mut sums, mut passes): (Vec<f64>, u64),
+    pool: &Pool,
+) -> Option<(Vec<f64>, u64, String)> {
+    let mut from = Vec::new();
+    if holds_bpt(method) {
+        from.push(format!("snapshot:{}", method.name()));
+    } else {
+        sums.clear();
+        passes = 0;
+    }
+    let (pooled, n) = pool.bpt_tally();
+    if n > 0 {
+        sums.resize(sums.len().max(pooled.len()), 0.0);
+        sums.iter_mut().zip(pooled).for_each(|(a, b)| *a += b);
+        passes += n;
+        from.push("pilots".to_string());
+    }
+    (passes > 0).then(|| (sums, passes, format!("{}:{passes}", from.join("+"))))
+}
+
 /// What the job measured and weighed, so that a user can see why it chose what it did.
 fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.omc_weight", reasons.omc_weight);
     image.set_float("mixmc.mcmc_unseen", reasons.mcmc_unseen);
+    if !reasons.pooled.is_empty() {
+        image.set_text("mixmc.pooled", &reasons.pooled);
+    }
     if !reasons.partner_rates.is_empty() {
         let list: Vec<String> = reasons
             .partner_rates
@@ -700,7 +777,7 @@ mod tests {
                     quiet: true,
                 };
                 let job = Job::new(&scene, &s).unwrap();
-                let mut r = Halved::new(w, h, scene.max_depth);
+                let mut r = Halved::new(w, h, scene.max_depth, seed);
                 r.render(&job, method, Budget::Passes(4), u64::MAX, "");
                 let before = r.even.passes;
                 r.tally_from_now(Some(alpha.as_slice().into()), scene.max_depth);

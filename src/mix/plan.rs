@@ -36,6 +36,8 @@ pub struct Reasons {
     /// MMLT's image-mean error inside the mask that its halves do not show, as the weight was
     /// chosen (`estimate::unseen_error`; 0 where the job did not mix).
     pub mcmc_unseen: f64,
+    /// The losing pilots' shares of the OMC image, `method:passes:share` (`pool`; empty: none).
+    pub pooled: String,
 }
 
 /// What the rest of the budget goes to.

@@ -312,7 +312,9 @@ impl<'a> Job<'a> {
             return Ok(early);
         }
         render_to(omc, 0.25, s.mask_spp);
-        self.mask(image(omc), dir)
+        let mut masked = self.mask(image(omc), dir)?;
+        masked.seconds += early.seconds;
+        Ok(masked)
     }
 
     /// The mask from the snapshot, as the mask tool would make it from `omc-snapshot.exr`.
@@ -634,8 +636,7 @@ fn above_switch_b(
     }
     let (pooled, n) = pool.bpt_tally();
     if n > 0 {
-        sums.resize(sums.len().max(pooled.len()), 0.0);
-        sums.iter_mut().zip(pooled).for_each(|(a, b)| *a += b);
+        pool::add_sums(&mut sums, pooled);
         passes += n;
         from.push("pilots".to_string());
     }

@@ -9,6 +9,7 @@
 //! `stress`).
 
 use super::halved::Halved;
+use super::holds_bpt;
 use crate::film::Film;
 use crate::integrators::Method;
 use crate::render::Rendered;
@@ -39,12 +40,9 @@ impl Pool {
     /// Its depth sums serve MMLT's b whether or not its `image` is pooled: an image that is not
     /// independent of the winner's would add the noise they share.
     pub(super) fn add(&mut self, method: Method, r: &Halved, error: f64, image: bool) {
-        if matches!(method, Method::Bpt | Method::Ibpt) && r.even.passes > 0 {
-            let sums = r.tally();
-            let t = &mut self.tally;
-            t.0.resize(sums.len().max(t.0.len()), 0.0);
-            t.0.iter_mut().zip(&sums).for_each(|(a, b)| *a += b);
-            t.1 += r.even.passes;
+        if holds_bpt(method) && r.even.passes > 0 {
+            add_sums(&mut self.tally.0, &r.tally());
+            self.tally.1 += r.even.passes;
         }
         let whole = r.whole();
         if !(image && error.is_finite() && error > 0.0) || whole.passes == 0 {
@@ -52,12 +50,7 @@ impl Pool {
         }
         let lambda = 1.0 / error;
         let k = (lambda / whole.passes as f64) as f32;
-        for (a, b) in self.film.direct.iter_mut().zip(&whole.film.direct) {
-            *a += k * *b;
-        }
-        for (a, b) in self.film.indirect.iter_mut().zip(&whole.film.indirect) {
-            *a += k * *b;
-        }
+        self.film.blend(1.0, &whole.film, k);
         self.weight += lambda;
         self.parts.push((method, whole.passes, lambda));
     }
@@ -76,13 +69,7 @@ impl Pool {
             (lambda / total) as f32,
             (winner.passes as f64 / total) as f32,
         );
-        let film = &mut winner.film;
-        for (a, b) in film.direct.iter_mut().zip(&self.film.direct) {
-            *a = kw * *a + kp * *b;
-        }
-        for (a, b) in film.indirect.iter_mut().zip(&self.film.indirect) {
-            *a = kw * *a + kp * *b;
-        }
+        winner.film.blend(kw, &self.film, kp);
         winner
     }
 
@@ -102,6 +89,12 @@ impl Pool {
     pub(super) fn bpt_tally(&self) -> (&[f64], u64) {
         (&self.tally.0, self.tally.1)
     }
+}
+
+/// Add per-depth sums into `into`, which grows to the longer of the two.
+pub(super) fn add_sums(into: &mut Vec<f64>, from: &[f64]) {
+    into.resize(into.len().max(from.len()), 0.0);
+    into.iter_mut().zip(from).for_each(|(a, b)| *a += b);
 }
 
 #[cfg(test)]

@@ -174,18 +174,28 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     let fin = read(&out);
     assert_eq!(fin.text_attr("mixmc.decision").as_deref(), Some("omc-only"));
     assert_eq!(fin.float_attr("mixmc.complex_fraction"), Some(0.0));
-    // The partner was measured: every candidate has a rate, and the winner's is the smallest.
-    let rates: Vec<(String, f64)> = fin
-        .text_attr("mixmc.omc_rates")
-        .unwrap()
-        .split(' ')
-        .map(|kv| {
-            let (k, v) = kv.split_once(':').unwrap();
-            (k.to_string(), v.parse().unwrap())
-        })
-        .collect();
+    // The partner was measured: every candidate has a rate, an exponent and a projected error,
+    // the winner's the smallest; no candidate is projected to converge faster than 1/t.
+    let list = |key: &str| -> Vec<(String, f64)> {
+        fin.text_attr(key)
+            .unwrap()
+            .split(' ')
+            .map(|kv| {
+                let (k, v) = kv.split_once(':').unwrap();
+                (k.to_string(), v.parse().unwrap())
+            })
+            .collect()
+    };
+    let (rates, exponents) = (list("mixmc.omc_rates"), list("mixmc.omc_exponents"));
+    let projected = list("mixmc.omc_projected");
     assert_eq!(rates.len(), 3, "{rates:?}");
-    let best = rates.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert_eq!(exponents.len(), 3, "{exponents:?}");
+    for ((rate, k), e) in rates.iter().zip(&exponents).zip(&projected) {
+        assert!((0.5..=1.0).contains(&k.1), "{exponents:?}");
+        // rate ÷ budget: the error at the budget if it fell as 1/t.
+        assert!(e.1 >= 0.999 * rate.1 / 2.0, "{rates:?} {projected:?}");
+    }
+    let best = projected.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
     assert_eq!(
         fin.text_attr("mixmc.method").as_deref(),
         Some(best.0.as_str())

@@ -35,8 +35,9 @@ struct Args {
     /// Wall-clock budget of the whole job, in seconds.
     #[arg(long, default_value_t = 60.0)]
     time: f64,
-    /// The OMC method: `auto` pilots PT, IBPT and BPT and keeps the one with the smallest
-    /// measured error rate (the paper: ibpt for the Cornell scenes, lt for room and bathroom).
+    /// The OMC method: `auto` pilots PT, IBPT and BPT and keeps the one whose measured error,
+    /// projected to the budget, is smallest (the paper: ibpt for the Cornell scenes, lt for room
+    /// and bathroom).
     #[arg(long, value_enum, default_value_t = Partner::Auto)]
     omc: Partner,
     /// How the budget is split between OMC and MMLT: `measured` decides from the error rates

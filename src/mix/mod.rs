@@ -2,8 +2,9 @@
 //!
 //! By default the job measures before it commits. `mix` is a sequence of phases:
 //! 1. the OMC partner: short pilots of PT, IBPT and BPT (`pilot::partner`), the smallest error
-//!    rate wins and keeps its passes; the losers' passes are pooled into its image at the end,
-//!    weighed by their measured errors (`pool`);
+//!    projected to the budget (from each pilot's error and how fast it falls) wins and keeps its
+//!    passes; the losers' passes are pooled into its image at the end, weighed by their
+//!    measured errors (`pool`);
 //! 2. the snapshot the mask is built from (the paper builds it from an early snapshot, 64–128
 //!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
 //!    that is already above the switch ends the snapshot there;
@@ -48,10 +49,10 @@ use pool::Pool;
 use std::path::Path;
 use std::time::Instant;
 
-/// The OMC partner: one method, or the one whose pilot measures the smallest error rate.
+/// The OMC partner: one method, or the one whose pilot projects the smallest error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Partner {
-    /// Pilots of PT, IBPT and BPT; the smallest error rate wins.
+    /// Pilots of PT, IBPT and BPT; the smallest error projected to the budget wins.
     Auto,
     Pt,
     Lt,
@@ -375,7 +376,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         None => {
             let c = pilot::partner(&job);
             let rate = c.rate();
-            reasons.partner_rates = c.rates;
+            reasons.partners = c.candidates;
             (c.method, c.render, c.pool, rate)
         }
     };
@@ -650,13 +651,21 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     if !reasons.pooled.is_empty() {
         image.set_text("mixmc.pooled", &reasons.pooled);
     }
-    if !reasons.partner_rates.is_empty() {
-        let list: Vec<String> = reasons
-            .partner_rates
-            .iter()
-            .map(|(m, r)| format!("{}:{r:.4e}", m.name()))
-            .collect();
-        image.set_text("mixmc.omc_rates", list.join(" "));
+    type Field = fn(&plan::Candidate) -> String;
+    let fields: [(&str, Field); 3] = [
+        ("mixmc.omc_rates", |c| format!("{:.4e}", c.rate)),
+        ("mixmc.omc_exponents", |c| format!("{:.3}", c.exponent)),
+        ("mixmc.omc_projected", |c| format!("{:.4e}", c.projected)),
+    ];
+    for (key, field) in fields {
+        if !reasons.partners.is_empty() {
+            let list: Vec<String> = reasons
+                .partners
+                .iter()
+                .map(|c| format!("{}:{}", c.method.name(), field(c)))
+                .collect();
+            image.set_text(key, list.join(" "));
+        }
     }
     let Some((d, r)) = &reasons.decision else {
         return;

@@ -3,7 +3,7 @@
 
 use super::estimate::missing_light;
 use super::halved::{Errors, Halved, mean};
-use super::plan::{Decision, Quadratic, Rates, decide};
+use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
 use super::{Job, MCMC_PILOT, holds_bpt};
 use crate::integrators::Method;
@@ -24,6 +24,36 @@ const CANDIDATES: [Method; 3] = [Method::Pt, Method::Ibpt, Method::Bpt];
 const PARTNER_PILOT: f64 = 0.03;
 const PARTNER_PILOT_MAX: f64 = 2.0;
 
+/// The slowest convergence a pilot may be credited with: error ∝ t^−K_MIN.
+const K_MIN: f64 = 0.5;
+/// Passes a pilot needs at its first point for its exponent to be measured: with fewer, each
+/// half's error is a few passes' fireflies against a level they lift, and on cornell-water,
+/// the torus and `stress` (BPT and IBPT at 2–4 passes) the measured exponent was at K_MIN for
+/// every candidate.
+const EXPONENT_PASSES: u64 = 8;
+
+/// How fast a pilot's error falls, from its error at two pass counts: `k` in error ∝ passes^−k,
+/// within [K_MIN, 1]. An unbiased estimator's error falls as 1/passes once its variance is
+/// finite and sampled; PT's LDR error on the room falls as passes^−0.6 over 40–1280 passes, as
+/// its rare bright paths keep adding variance and its fireflies, clamped at a few passes, fall
+/// into the LDR range as the passes grow (two renders' difference ×2.3 per 4× the passes,
+/// IBPT's ×3.8; docs/main-job.md, ninth round). A pilot's rate (error × seconds) ranks PT by its
+/// first second, where it is fastest: it won the room in 2 of 8 jobs and cost 1.7× there. Each
+/// point is the error as the render stands, linearised at its own level: at one common level,
+/// the last one, PT's fireflies are clamped in both points and its `k` came out at 0.83–1.0.
+/// Noise can push the measured `k` above 1: no method is credited with more than 1/t. A first
+/// point of fewer than EXPONENT_PASSES passes, one point, or errors that are not finite and
+/// positive give 1.
+fn exponent((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> f64 {
+    if n1 < EXPONENT_PASSES
+        || n2 <= n1
+        || !(e1 > 0.0 && e2 > 0.0 && e1.is_finite() && e2.is_finite())
+    {
+        return 1.0;
+    }
+    ((e1 / e2).ln() / (n2 as f64 / n1 as f64).ln()).clamp(K_MIN, 1.0)
+}
+
 /// The seed of the winner's passes after its pilot. The pilots share the job's seed, so that
 /// their passes share their camera (BPT's and IBPT's also their light) random numbers: their
 /// errors are then compared on the same paths, which ranks the near ties between IBPT and BPT
@@ -43,8 +73,8 @@ pub(super) struct Chosen {
     pub(super) method: Method,
     /// The winner's render, which goes on.
     pub(super) render: Halved,
-    /// Every candidate's measured error rate (error × seconds), the winner's among them.
-    pub(super) rates: Vec<(Method, f64)>,
+    /// Every candidate's pilot as measured, the winner's among them.
+    pub(super) candidates: Vec<Candidate>,
     /// The losers' passes, weighed by their measured errors.
     pub(super) pool: Pool,
 }
@@ -52,31 +82,41 @@ pub(super) struct Chosen {
 impl Chosen {
     /// The winner's measured rate.
     pub(super) fn rate(&self) -> f64 {
-        self.rates
+        self.candidates
             .iter()
-            .find(|(m, _)| *m == self.method)
-            .map_or(f64::NAN, |r| r.1)
+            .find(|c| c.method == self.method)
+            .map_or(f64::NAN, |c| c.rate)
     }
 }
 
-/// Pilots of each candidate for a share of the budget, all of the job's seed; the one with the
-/// smallest error rate wins, keeps its passes and goes on with a seed of its own
-/// (`continuation_seed`), the others' go to the pool (`pool`). A candidate's error is its
-/// variance's plus the light it has missing against BPT's pilot (`estimate::missing_light`;
-/// BPT holds every strategy, so it misses least).
+/// Pilots of each candidate for a share of the budget, all of the job's seed; the one whose
+/// error, projected from its pilot to the job's budget at its own measured pace (`exponent`), is
+/// smallest wins, keeps its passes and goes on with a seed of its own (`continuation_seed`), the
+/// others' go to the pool (`pool`). A candidate's error is its variance's plus the light it has
+/// missing against BPT's pilot (`estimate::missing_light`; BPT holds every strategy, so it
+/// misses least).
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
     let mut pilots = Vec::new();
+    let mut early = Vec::new();
+    let pilot = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX);
     for m in CANDIDATES {
         let mut r = Halved::new(w, h, job.s.max_depth, job.s.seed);
         let label = format!("mix: pilot of {}", m.name());
-        // Two passes at least: the halves need one each.
+        // Two passes at least: the halves need one each. The error half way is the first
+        // point of the candidate's convergence (`exponent`).
         r.render(job, m, Budget::Passes(2), u64::MAX, &label);
-        let more = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX) - r.even.seconds;
-        if more > 0.0 && !r.even.partial {
-            r.render(job, m, Budget::Seconds(more), u64::MAX, &label);
-        }
+        let render_to = |r: &mut Halved, end: f64| {
+            let more = end - r.even.seconds;
+            if more > 0.0 && !r.even.partial {
+                r.render(job, m, Budget::Seconds(more), u64::MAX, &label);
+            }
+        };
+        render_to(&mut r, 0.5 * pilot);
+        let point = (r.even.passes, mean(&r.errors(None, &r.level())));
+        render_to(&mut r, pilot);
         let interrupted = r.even.partial;
+        early.push(point);
         pilots.push((m, r));
         if interrupted {
             break;
@@ -85,25 +125,29 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
     let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
     let halves = |i: usize| pilots[i].1.as_halves(&beauties[i][0], &beauties[i][1]);
-    // Each pilot's image-mean error as it stands.
-    let errors: Vec<f64> = (0..pilots.len())
-        .map(|i| {
-            let r = &pilots[i].1;
-            let level = r.level();
-            let missing = match reference {
-                Some(k) if k != i => missing_light(&halves(i), &halves(k), &level, w, h),
-                _ => 0.0,
-            };
-            mean(&r.errors(None, &level)) + missing
-        })
-        .collect();
-    let rates: Vec<(Method, f64)> = pilots
-        .iter()
-        .zip(&errors)
-        .map(|((m, r), e)| (*m, e * r.even.seconds))
-        .collect();
-    let best = (0..rates.len())
-        .min_by(|&a, &b| rates[a].1.total_cmp(&rates[b].1))
+    // Each pilot's image-mean error as it stands, its variance's convergence exponent, and the
+    // error that projects to at the job's budget.
+    let mut errors = Vec::new();
+    let mut candidates = Vec::new();
+    for (i, (m, r)) in pilots.iter().enumerate() {
+        let level = r.level();
+        let missing = match reference {
+            Some(k) if k != i => missing_light(&halves(i), &halves(k), &level, w, h),
+            _ => 0.0,
+        };
+        let variance = mean(&r.errors(None, &level));
+        let exponent = exponent(early[i], (r.even.passes, variance));
+        let e = variance + missing;
+        errors.push(e);
+        candidates.push(Candidate {
+            method: *m,
+            rate: e * r.even.seconds,
+            exponent,
+            projected: e * (r.even.seconds / job.s.seconds).powf(exponent),
+        });
+    }
+    let best = (0..candidates.len())
+        .min_by(|&a, &b| candidates[a].projected.total_cmp(&candidates[b].projected))
         .unwrap_or(0);
     let mut pool = Pool::empty(w, h);
     let winner = pilots[best].0;
@@ -120,7 +164,7 @@ pub(super) fn partner(job: &Job) -> Chosen {
     Chosen {
         method,
         render,
-        rates,
+        candidates,
         pool,
     }
 }
@@ -153,4 +197,29 @@ pub(super) fn mcmc<'a>(
     };
     let d = decide(&rates, job.left());
     (run, d, rates)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_exponent_is_the_slope_of_the_error_against_the_passes_within_its_bounds() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // 1/passes: an estimator whose variance is sampled.
+        assert!(close(exponent((10, 8.0), (40, 2.0)), 1.0));
+        assert!(close(exponent((10, 8.0), (40, 4.0)), 0.5));
+        // passes^−0.6, as PT's halves' error on the room.
+        let e = |n: f64| 100.0 * n.powf(-0.6);
+        assert!(close(exponent((14, e(14.0)), (28, e(28.0))), 0.6));
+        // Noise that makes the error fall faster than 1/passes, or not at all, is bounded.
+        assert!(close(exponent((10, 9.0), (20, 2.0)), 1.0));
+        assert!(close(exponent((10, 2.0), (20, 3.0)), K_MIN));
+        // No second point, or an error that is not a number: 1/passes.
+        assert!(close(exponent((10, 2.0), (10, 1.0)), 1.0));
+        assert!(close(exponent((10, f64::INFINITY), (20, 1.0)), 1.0));
+        assert!(close(exponent((10, 0.0), (20, 1.0)), 1.0));
+        // Too few passes at the first point to measure.
+        assert!(close(exponent((EXPONENT_PASSES - 1, 4.0), (28, 1.0)), 1.0));
+    }
 }

@@ -21,12 +21,26 @@
 
 use crate::integrators::Method;
 
-/// Why the job rendered what it did, as data: the header (`mixmc.omc_rates`, `mixmc.rate.*`,
-/// `mixmc.predicted.*`, `mixmc.omc_weight`) is written from it.
+/// One partner candidate's pilot, as measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub method: Method,
+    /// Its image-mean error × its seconds.
+    pub rate: f64,
+    /// `k` in error ∝ passes^−k, from its error at two points of its pilot (`pilot::exponent`).
+    pub exponent: f64,
+    /// Its error projected from the pilot's seconds to the job's whole budget: the smallest
+    /// wins.
+    pub projected: f64,
+}
+
+/// Why the job rendered what it did, as data: the header (`mixmc.omc_rates`,
+/// `mixmc.omc_exponents`, `mixmc.omc_projected`, `mixmc.rate.*`, `mixmc.predicted.*`,
+/// `mixmc.omc_weight`) is written from it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Reasons {
-    /// Each candidate partner's measured error rate (`--omc auto`; empty for a given partner).
-    pub partner_rates: Vec<(Method, f64)>,
+    /// Each candidate partner's pilot (`--omc auto`; empty for a given partner).
+    pub partners: Vec<Candidate>,
     /// MMLT's pilot's rates and what they decided (the measured split, below the switch, with
     /// a mask that marks pixels).
     pub decision: Option<(Decision, Rates)>,

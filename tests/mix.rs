@@ -4,6 +4,7 @@
 mod util;
 
 use mixmc::exrio::ExrImage;
+use mixmc::mix::plan::worth_a_pilot;
 use std::path::Path;
 use util::{TempDir, assert_one_line_error, bin, fixture, run_ok};
 
@@ -228,15 +229,27 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
         }
         other => panic!("below the switch the job chose {other:?}"),
     }
-    // Where the mask marked pixels, MMLT's pilot ran and the job wrote what it weighed.
+    // Where the mask marked pixels, either MMLT's pilot ran and the job wrote what it weighed,
+    // or the share of OMC's error in the mask was too small for the pilot to repay itself.
     if fin.float_attr("mixmc.complex_fraction").unwrap() > 0.0 {
-        for k in [
-            "mixmc.rate.mcmc_in",
-            "mixmc.predicted.omc_alone",
-            "mixmc.predicted.mix",
-        ] {
-            let v = fin.float_attr(k).unwrap_or(f64::NAN);
-            assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
+        let share = fin.float_attr("mixmc.mask_error_share").unwrap();
+        assert!((0.0..=1.0).contains(&share), "share {share}");
+        if fin.float_attr("mixmc.rate.mcmc_in").is_some() {
+            for k in [
+                "mixmc.rate.mcmc_in",
+                "mixmc.predicted.omc_alone",
+                "mixmc.predicted.mix",
+            ] {
+                let v = fin.float_attr(k).unwrap_or(f64::NAN);
+                assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
+            }
+        } else {
+            let pilot = fin.float_attr("mixmc.mcmc_pilot_share").unwrap();
+            assert!(
+                pilot > 0.0 && !worth_a_pilot(share, pilot),
+                "{share} {pilot}"
+            );
+            assert_eq!(fin.text_attr("mixmc.decision").as_deref(), Some("omc-only"));
         }
     }
 }

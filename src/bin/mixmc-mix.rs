@@ -169,8 +169,16 @@ fn main() -> ExitCode {
         } else {
             format!(", pilots pooled {}", m.reasons.pooled)
         };
+        let unpiloted = if m.reasons.decision.is_none() && m.reasons.mask_share > 0.0 {
+            format!(
+                " (no MMLT pilot: {:.0}% of OMC's error in the mask)",
+                100.0 * m.reasons.mask_share
+            )
+        } else {
+            String::new()
+        };
         let how = format!(
-            "{:.2}% complex pixels{}, {}{b}{weight}{pooled}",
+            "{:.2}% complex pixels{}, {}{unpiloted}{b}{weight}{pooled}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

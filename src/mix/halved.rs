@@ -179,47 +179,60 @@ pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
-/// The estimated image-mean LDR squared errors of each part of the mix as the renders stand,
-/// split at the mask: every pixel counts towards the mean, only its own part's sum.
-pub(super) struct Errors {
-    /// OMC's beauty, the whole image.
-    pub(super) omc_alone: f64,
-    /// OMC's `D + (1 − ε)·I` outside the mask.
-    pub(super) omc_out: f64,
-    /// OMC's `D + w·I` inside it, as a function of `w`.
-    pub(super) omc_in: Quadratic,
-    /// MMLT's α·I outside the mask and inside it.
-    pub(super) mcmc_out: f64,
-    pub(super) mcmc_in: f64,
+/// Each pixel's share of an image-mean error, summed outside and inside the mask.
+fn split_mean(e: &[f64], alpha: &[f32]) -> [f64; 2] {
+    let n = alpha.len().max(1) as f64;
+    e.iter().zip(alpha).fold([0.0; 2], |mut s, (x, a)| {
+        s[crate::composite::is_complex(*a) as usize] += x / n;
+        s
+    })
 }
 
-impl Errors {
-    pub(super) fn measure(omc: &Halved, run: &MmltRun, alpha: &[f32]) -> Errors {
-        let n = alpha.len().max(1) as f64;
+/// OMC's estimated image-mean LDR squared errors as the render stands, split at the mask: every
+/// pixel counts towards the mean, only its own part's sum.
+pub(super) struct OmcErrors {
+    /// The beauty, the whole image.
+    pub(super) alone: f64,
+    /// `D + (1 − ε)·I` outside the mask.
+    pub(super) out: f64,
+    /// `D + w·I` inside it, as a function of `w`.
+    pub(super) inside: Quadratic,
+}
+
+impl OmcErrors {
+    pub(super) fn measure(omc: &Halved, alpha: &[f32]) -> OmcErrors {
         let inside = |p: usize| crate::composite::is_complex(alpha[p]);
-        let sums = |e: &[f64]| {
-            e.iter().enumerate().fold([0.0; 2], |mut s, (p, x)| {
-                s[inside(p) as usize] += x / n;
-                s
-            })
-        };
         let level = omc.level();
         // OMC's indirect light at weight w inside the mask; MMLT's weight is 1 − w.
         let at = |w: f32| {
             let mcmc_weight: Vec<f32> = (0..alpha.len())
                 .map(|p| if inside(p) { 1.0 - w } else { alpha[p] })
                 .collect();
-            sums(&omc.errors(Some(&mcmc_weight), &level))
+            split_mean(&omc.errors(Some(&mcmc_weight), &level), alpha)
         };
         let (at0, at_half, at1) = (at(0.0), at(0.5), at(1.0));
-        let [a, b] = run.halves();
-        let mcmc = sums(&Halves::equal(&a, &b).ldr_error(&level));
-        Errors {
-            omc_alone: mean(&omc.errors(None, &level)),
-            omc_out: at0[0],
-            omc_in: Quadratic::through(at0[1], at_half[1], at1[1]),
-            mcmc_out: mcmc[0],
-            mcmc_in: mcmc[1],
+        OmcErrors {
+            alone: mean(&omc.errors(None, &level)),
+            out: at0[0],
+            inside: Quadratic::through(at0[1], at_half[1], at1[1]),
         }
     }
+
+    /// The share of the beauty's error that is the indirect light inside the mask: what the
+    /// mask gives MMLT to fix.
+    pub(super) fn mask_share(&self) -> f64 {
+        let share = (self.inside.at(1.0) - self.inside.at(0.0)) / self.alone;
+        if share.is_finite() {
+            share.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// MMLT's estimated image-mean LDR squared errors of α·I as its run stands, outside the mask
+/// and inside it, from its two halves at OMC's level.
+pub(super) fn mcmc_errors(omc: &Halved, run: &MmltRun, alpha: &[f32]) -> [f64; 2] {
+    let [a, b] = run.halves();
+    split_mean(&Halves::equal(&a, &b).ldr_error(&omc.level()), alpha)
 }

@@ -10,7 +10,8 @@
 //!    that is already above the switch ends the snapshot there;
 //! 3. the plan: a pilot of MMLT on α·I (`pilot::mcmc`) and the decision (`plan`): OMC alone, the
 //!    mix at the split that minimises the predicted error, or, above the mask's switch, MCMC
-//!    alone;
+//!    alone; OMC alone without the pilot where the mask holds too little of OMC's error for
+//!    the pilot to repay itself (`plan::worth_a_pilot`);
 //! 4. the rest of the budget, as decided;
 //! 5. MMLT's normalisation from the OMC passes (above the switch, the snapshot's and the losing
 //!    pilots' that hold BPT's strategies), and the weight of OMC's indirect light inside
@@ -436,10 +437,18 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         // Nothing for MMLT to do beyond ε·I everywhere, which OMC renders better.
         Choice::OmcOnly
     } else {
-        let (run, d, rates) = pilot::mcmc(&job, &omc, alpha, &mmlt_settings);
-        mmlt = Some(run);
-        reasons.decision = Some((d, rates));
-        d.choice
+        let e = halved::OmcErrors::measure(&omc, alpha);
+        reasons.mask_share = e.mask_share();
+        reasons.pilot_share = MCMC_PILOT * s.seconds / job.left();
+        if plan::worth_a_pilot(reasons.mask_share, reasons.pilot_share) {
+            let (run, d, rates) = pilot::mcmc(&job, &omc, &e, alpha, &mmlt_settings);
+            mmlt = Some(run);
+            reasons.decision = Some((d, rates));
+            d.choice
+        } else {
+            // Too little of OMC's error is in the mask for MMLT's pilot to repay itself.
+            Choice::OmcOnly
+        }
     };
 
     // 4. The rest of the budget, as decided: OMC first, MMLT last, so that it takes up what is
@@ -648,6 +657,8 @@ fn above_switch_b(
 fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.omc_weight", reasons.omc_weight);
     image.set_float("mixmc.mcmc_unseen", reasons.mcmc_unseen);
+    image.set_float("mixmc.mask_error_share", reasons.mask_share);
+    image.set_float("mixmc.mcmc_pilot_share", reasons.pilot_share);
     if !reasons.pooled.is_empty() {
         image.set_text("mixmc.pooled", &reasons.pooled);
     }

@@ -2,7 +2,7 @@
 //! the mask exists, the split (`plan`). Each pilot's work is kept where its method goes on.
 
 use super::estimate::missing_light;
-use super::halved::{Errors, Halved, mean};
+use super::halved::{Halved, OmcErrors, mcmc_errors, mean};
 use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
 use super::{Job, MCMC_PILOT, holds_bpt};
@@ -170,11 +170,13 @@ pub(super) fn partner(job: &Job) -> Chosen {
 }
 
 /// MMLT's pilot on α·I: its start-up (bounded by half of what is left), then a share of rounds,
-/// in two independent halves of chains; then the decision from both renders' measured rates.
-/// The run goes on if the job mixes.
+/// in two independent halves of chains; then the decision from both renders' measured rates
+/// (OMC's `e`, measured before the pilot: OMC does not render during it). The run goes on if
+/// the job mixes.
 pub(super) fn mcmc<'a>(
     job: &Job<'a>,
     omc: &Halved,
+    e: &OmcErrors,
     alpha: &'a [f32],
     settings: &MmltSettings,
 ) -> (MmltRun<'a>, Decision, Rates) {
@@ -184,14 +186,14 @@ pub(super) fn mcmc<'a>(
     };
     let mut run = MmltRun::start(job.scene, Some(alpha), &settings, 2);
     run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
-    let e = Errors::measure(omc, &run, alpha);
+    let [mcmc_out, mcmc_in] = mcmc_errors(omc, &run, alpha);
     let (u, v) = (omc.even.seconds, run.result().chain_seconds);
     let rates = Rates {
-        omc_alone: e.omc_alone * u,
-        omc_out: e.omc_out * u,
-        omc_in: Quadratic(e.omc_in.0.map(|c| c * u)),
-        mcmc_out: e.mcmc_out * v,
-        mcmc_in: e.mcmc_in * v,
+        omc_alone: e.alone * u,
+        omc_out: e.out * u,
+        omc_in: Quadratic(e.inside.0.map(|c| c * u)),
+        mcmc_out: mcmc_out * v,
+        mcmc_in: mcmc_in * v,
         omc_seconds: u,
         mcmc_seconds: v,
     };

@@ -50,6 +50,11 @@ pub struct Reasons {
     /// MMLT's image-mean error inside the mask that its halves do not show, as the weight was
     /// chosen (`estimate::unseen_error`; 0 where the job did not mix).
     pub mcmc_unseen: f64,
+    /// The share of OMC's error that is its indirect light inside the mask, as the snapshot
+    /// stood (`worth_a_pilot`; 0 where the job did not measure it).
+    pub mask_share: f64,
+    /// The share of the time left that MMLT's pilot would take (`worth_a_pilot`).
+    pub pilot_share: f64,
     /// The losing pilots' shares of the OMC image, `method:passes:share` (`pool`; empty: none).
     pub pooled: String,
 }
@@ -151,6 +156,25 @@ pub struct Decision {
     pub omc_weight: f64,
 }
 
+/// MMLT's smallest error rate inside the mask relative to the OMC partner's for its indirect
+/// light there, over the jobs measured on the six scenes at 30 s (`mixmc.rate.mcmc_in` ÷
+/// `mixmc.rate.omc_in.w1 + w2`): 0.058–0.10 on cornell-torus, 0.14–0.53 on cornell-water and
+/// the bathroom, 0.16–1.05 on the room (docs/main-job.md, ninth round).
+pub const MCMC_BEST: f64 = 0.06;
+
+/// Whether an MMLT pilot that takes `pilot` of the remaining time can repay itself, where the
+/// indirect light inside the mask is `share` of OMC's error: with OMC's error `A` over the
+/// image and MMLT's rate `m·share·A` inside the mask, `u` seconds of OMC and `v` of MMLT give
+/// `(1 − share)·A/u + m·share·A/v`, at best `(√(1 − share) + √(m·share))²·A/T` against OMC
+/// alone's `A/T`. Even at MMLT's best measured `m` (MCMC_BEST) that gain must exceed what the
+/// pilot costs if OMC alone follows it. On the room (17–30% of OMC's error in the mask, 7% of
+/// the pixels) the mix never paid: 8.3 against 7.9 where the pilot chose OMC alone, and the
+/// lost pilot cost 7% of the budget.
+pub fn worth_a_pilot(share: f64, pilot: f64) -> bool {
+    let best = ((1.0 - share).max(0.0).sqrt() + (MCMC_BEST * share.max(0.0)).sqrt()).powi(2);
+    best < 1.0 - pilot
+}
+
 /// Splits tried between rendering no more MMLT and rendering only MMLT.
 const SPLIT_STEPS: usize = 256;
 
@@ -203,6 +227,25 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pilot_is_worth_it_only_where_the_mask_holds_enough_of_omcs_error() {
+        // The room (17–30% of OMC's error in the mask, a pilot of 7% of the time left): no.
+        for share in [0.0, 0.17, 0.3] {
+            assert!(!worth_a_pilot(share, 0.07), "{share}");
+        }
+        // cornell-torus, the bathroom (55–58%) and cornell-water (95%): yes.
+        for share in [0.55, 0.95, 1.0] {
+            assert!(worth_a_pilot(share, 0.07), "{share}");
+        }
+        // At MMLT's best rate the mix's best error is below OMC alone's exactly where the gain
+        // beats the pilot: a free pilot pays from a smaller share than a costly one.
+        let at = |share: f64| ((1.0 - share).sqrt() + (MCMC_BEST * share).sqrt()).powi(2);
+        let first = |pilot: f64| (1..1000).find(|&i| worth_a_pilot(i as f64 / 1000.0, pilot));
+        let (free, costly) = (first(0.0).unwrap(), first(0.2).unwrap());
+        assert!(free < costly, "{free} {costly}");
+        assert!(at(costly as f64 / 1000.0) < 0.8 && at((costly - 1) as f64 / 1000.0) >= 0.8);
+    }
 
     /// OMC with no correlation between D and I inside the mask: `q(w) = d + w²·i`.
     fn rates(omc_alone: f64, omc_out: f64, d: f64, i: f64, mcmc_in: f64) -> Rates {

@@ -167,9 +167,9 @@ pub const MCMC_BEST: f64 = 0.06;
 /// image and MMLT's rate `m·share·A` inside the mask, `u` seconds of OMC and `v` of MMLT give
 /// `(1 − share)·A/u + m·share·A/v`, at best `(√(1 − share) + √(m·share))²·A/T` against OMC
 /// alone's `A/T`. Even at MMLT's best measured `m` (MCMC_BEST) that gain must exceed what the
-/// pilot costs if OMC alone follows it. On the room (17–30% of OMC's error in the mask, 7% of
-/// the pixels) the mix never paid: 8.3 against 7.9 where the pilot chose OMC alone, and the
-/// lost pilot cost 7% of the budget.
+/// pilot costs if OMC alone follows it. On the room (16–30% of OMC's error in the mask, 7% of
+/// the pixels) the mix never paid at 30 s (8.17–8.72 where the pilot chose it, 7.92–8.24 where
+/// it chose OMC alone, whose lost pilot cost 7% of the budget; 7.39–7.89 with IBPT and no pilot).
 pub fn worth_a_pilot(share: f64, pilot: f64) -> bool {
     let best = ((1.0 - share).max(0.0).sqrt() + (MCMC_BEST * share.max(0.0)).sqrt()).powi(2);
     best < 1.0 - pilot

@@ -169,7 +169,8 @@ fn main() -> ExitCode {
         } else {
             format!(", pilots pooled {}", m.reasons.pooled)
         };
-        let unpiloted = if m.reasons.decision.is_none() && m.reasons.mask_share > 0.0 {
+        // The share of the time MMLT's pilot would take is set wherever the job weighed it.
+        let unpiloted = if m.reasons.decision.is_none() && m.reasons.pilot_share > 0.0 {
             format!(
                 " (no MMLT pilot: {:.0}% of OMC's error in the mask)",
                 100.0 * m.reasons.mask_share

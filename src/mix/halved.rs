@@ -197,6 +197,8 @@ pub(super) struct OmcErrors {
     pub(super) out: f64,
     /// `D + w·I` inside it, as a function of `w`.
     pub(super) inside: Quadratic,
+    /// The smoothed beauty they were linearised at, where MMLT's are too (`mcmc`).
+    level: Vec<[f32; 3]>,
 }
 
 impl OmcErrors {
@@ -215,7 +217,15 @@ impl OmcErrors {
             alone: mean(&omc.errors(None, &level)),
             out: at0[0],
             inside: Quadratic::through(at0[1], at_half[1], at1[1]),
+            level,
         }
+    }
+
+    /// MMLT's estimated image-mean LDR squared errors of α·I as its run stands, outside the
+    /// mask and inside it, from its two halves at OMC's level.
+    pub(super) fn mcmc(&self, run: &MmltRun, alpha: &[f32]) -> [f64; 2] {
+        let [a, b] = run.halves();
+        split_mean(&Halves::equal(&a, &b).ldr_error(&self.level), alpha)
     }
 
     /// The share of the beauty's error that is the indirect light inside the mask: what the
@@ -228,11 +238,4 @@ impl OmcErrors {
             0.0
         }
     }
-}
-
-/// MMLT's estimated image-mean LDR squared errors of α·I as its run stands, outside the mask
-/// and inside it, from its two halves at OMC's level.
-pub(super) fn mcmc_errors(omc: &Halved, run: &MmltRun, alpha: &[f32]) -> [f64; 2] {
-    let [a, b] = run.halves();
-    split_mean(&Halves::equal(&a, &b).ldr_error(&omc.level()), alpha)
 }

@@ -668,11 +668,9 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
         ("mixmc.omc_exponents", |c| format!("{:.3}", c.exponent)),
         ("mixmc.omc_projected", |c| format!("{:.4e}", c.projected)),
     ];
-    for (key, field) in fields {
-        if !reasons.partners.is_empty() {
-            let list: Vec<String> = reasons
-                .partners
-                .iter()
+    if !reasons.partners.is_empty() {
+        for (key, field) in fields {
+            let list: Vec<String> = (reasons.partners.iter())
                 .map(|c| format!("{}:{}", c.method.name(), field(c)))
                 .collect();
             image.set_text(key, list.join(" "));

@@ -2,7 +2,7 @@
 //! the mask exists, the split (`plan`). Each pilot's work is kept where its method goes on.
 
 use super::estimate::missing_light;
-use super::halved::{Halved, OmcErrors, mcmc_errors, mean};
+use super::halved::{Halved, OmcErrors, mean};
 use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
 use super::{Job, MCMC_PILOT, holds_bpt};
@@ -186,7 +186,7 @@ pub(super) fn mcmc<'a>(
     };
     let mut run = MmltRun::start(job.scene, Some(alpha), &settings, 2);
     run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
-    let [mcmc_out, mcmc_in] = mcmc_errors(omc, &run, alpha);
+    let [mcmc_out, mcmc_in] = e.mcmc(&run, alpha);
     let (u, v) = (omc.even.seconds, run.result().chain_seconds);
     let rates = Rates {
         omc_alone: e.alone * u,

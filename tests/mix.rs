@@ -189,8 +189,10 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     };
     let (rates, exponents) = (list("mixmc.omc_rates"), list("mixmc.omc_exponents"));
     let projected = list("mixmc.omc_projected");
-    assert_eq!(rates.len(), 3, "{rates:?}");
-    assert_eq!(exponents.len(), 3, "{exponents:?}");
+    // PT's own pilot and the shared one's three views.
+    let names: Vec<&str> = rates.iter().map(|(k, _)| k.as_str()).collect();
+    assert_eq!(names, ["pt", "bpt", "ibpt", "lt"], "{rates:?}");
+    assert_eq!(exponents.len(), 4, "{exponents:?}");
     for ((rate, k), e) in rates.iter().zip(&exponents).zip(&projected) {
         assert!((0.5..=1.0).contains(&k.1), "{exponents:?}");
         // rate ÷ budget: the error at the budget if it fell as 1/t.

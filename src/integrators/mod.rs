@@ -32,6 +32,16 @@ impl Method {
         }
     }
 
+    /// The bidirectional methods' strategies (they share one sample: `bidir::trace_sample`).
+    pub fn strategies(self) -> Option<Strategies> {
+        match self {
+            Method::Pt => None,
+            Method::Lt => Some(Strategies::Lt),
+            Method::Ibpt => Some(Strategies::Ibpt),
+            Method::Bpt => Some(Strategies::Bpt),
+        }
+    }
+
     /// Add pass number `pass` of a render with `seed` to `film`. Passes are independent: the
     /// same (seed, pass) always adds the same values, whatever the thread count.
     pub fn render_pass(self, scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {

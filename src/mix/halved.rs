@@ -7,6 +7,7 @@ use super::estimate::{Halves, MixHalf, add, film_means, smooth, unseen_error, we
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
+use crate::integrators::bidir::{Strategies, render_views};
 use crate::mmlt::MmltRun;
 use crate::render::{Budget, Rendered, continue_passes};
 
@@ -73,6 +74,45 @@ impl Halved {
             let film = if i % 2 == 0 { film } else { &mut *odd };
             method.render_pass(scene, s.max_depth, seed, i, film)
         });
+    }
+
+    /// Go on with passes of BPT's sub-paths weighed as each of the bidirectional methods of
+    /// `views` at once (`bidir::render_views`), each into its own render, until `budget` is
+    /// spent: one render of each, from the same paths, for the cost of the method that joins
+    /// the most. Every render's `seconds` is the whole time: the caller knows what each
+    /// method's passes cost alone.
+    pub(super) fn render_views(
+        views: &mut [(Method, Halved)],
+        job: &Job,
+        budget: Budget,
+        label: &str,
+    ) {
+        let methods: Vec<Strategies> = views.iter().filter_map(|(m, _)| m.strategies()).collect();
+        debug_assert_eq!(
+            methods.len(),
+            views.len(),
+            "views are bidirectional methods"
+        );
+        let Some(((_, first), rest)) = views.split_first_mut() else {
+            return;
+        };
+        let (scene, s, seed) = (job.scene, job.s, first.seed);
+        let odd = &mut first.odd;
+        let prev = std::mem::replace(&mut first.even, Rendered::empty(0, 0));
+        first.even = continue_passes(prev, budget, u64::MAX, label, s.quiet, |i, film| {
+            let mut films: Vec<&mut Film> = Vec::with_capacity(methods.len());
+            let even = i % 2 == 0;
+            films.push(if even { film } else { &mut *odd });
+            for (_, r) in rest.iter_mut() {
+                films.push(if even { &mut r.even.film } else { &mut r.odd });
+            }
+            render_views(scene, &methods, s.max_depth, seed, i, &mut films)
+        });
+        for (_, r) in rest.iter_mut() {
+            let e = &first.even;
+            (r.even.passes, r.even.seconds, r.even.rays, r.even.partial) =
+                (e.passes, e.seconds, e.rays, e.partial);
+        }
     }
 
     /// The whole render: both halves' sums.

@@ -5,25 +5,30 @@ use super::estimate::missing_light;
 use super::halved::{Halved, OmcErrors, mean};
 use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
-use super::{Job, MCMC_PILOT, holds_bpt};
+use super::{Job, MCMC_PILOT, serves_b};
 use crate::integrators::Method;
 use crate::mmlt::{MmltRun, MmltSettings};
 use crate::render::Budget;
 use crate::rng::mix64;
+use std::time::Instant;
 
-/// The candidates of `--omc auto`. LT is left out: BPT holds its strategies under MIS. In the
-/// study of 2026-12-02 (docs/results/report.md) LT alone was nonetheless the best single method
-/// on cornell-torus (1–3% ahead of BPT) and at 30 s on cornell-water; as a fourth candidate it
-/// won no pilot on the paper's four scenes (its rate on the torus 1.2–1.35× BPT's) and its pilot
-/// only cost time (docs/main-job.md, fourth round).
-const CANDIDATES: [Method; 3] = [Method::Pt, Method::Ibpt, Method::Bpt];
-/// Each candidate's pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the
-/// winner's passes are kept, the others' are pooled into its image (`pool`). The ranking needs
-/// a few passes of each (BPT renders about 5 a second at 256² on two cores), not a share that
+/// The candidate of `--omc auto` with a pilot of its own: PT's paths are not BPT's.
+const ALONE: Method = Method::Pt;
+/// The candidates rendered together by one pilot of BPT's sub-paths, each weighed by its own
+/// strategies (`Halved::render_views`): the same paths, so their errors are compared without
+/// their paths' noise between them, and for about the cost of BPT's pilot alone. LT was left out
+/// while it needed a pilot of its own: a few passes of it ranked LT 1.2–1.35× BPT on the torus,
+/// where LT alone was the best single method (docs/main-job.md, fourth round).
+const SHARED: [Method; 3] = [Method::Bpt, Method::Ibpt, Method::Lt];
+/// Each pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the winner's passes
+/// are kept, PT's as a loser are pooled into the winner's image (`pool`). The ranking needs a
+/// few passes of each (BPT renders about 5 a second at 256² on two cores), not a share that
 /// grows with the budget.
 const PARTNER_PILOT: f64 = 0.03;
 const PARTNER_PILOT_MAX: f64 = 2.0;
-
+/// The shared pilot is longer: it ranks three methods, one of them as fast as BPT's pass allows.
+const SHARED_PILOT: f64 = 0.04;
+const SHARED_PILOT_MAX: f64 = 2.5;
 /// The slowest convergence a pilot may be credited with: error ∝ t^−K_MIN.
 const K_MIN: f64 = 0.5;
 /// Passes a pilot needs at its first point for its exponent to be measured: with fewer, each
@@ -89,38 +94,46 @@ impl Chosen {
     }
 }
 
-/// Pilots of each candidate for a share of the budget, all of the job's seed; the one whose
-/// error, projected from its pilot to the job's budget at its own measured pace (`exponent`), is
-/// smallest wins, keeps its passes and goes on with a seed of its own (`continuation_seed`), the
-/// others' go to the pool (`pool`). A candidate's error is its variance's plus the light it has
-/// missing against BPT's pilot (`estimate::missing_light`; BPT holds every strategy, so it
-/// misses least).
+/// A pilot of PT alone and one shared by BPT, IBPT and LT (`SHARED`), all of the job's seed.
+/// The shared pilot's first pass is each candidate's alone, timed: what one of its passes costs,
+/// which the shared passes cannot tell (they pay for BPT's joins whatever they weigh), and the
+/// same values its view would have had (`bidir::render_views`). The candidate whose error, projected from its pilot to the job's
+/// budget at its own measured pace (`exponent`), is smallest wins and goes on. A shared
+/// candidate's seconds are its passes at its own cost per pass: what its render would have cost
+/// alone. A candidate's error is its variance's plus the light it has missing against BPT's
+/// view (`estimate::missing_light`; BPT holds every strategy, so it misses least). PT's pilot,
+/// if it loses, is pooled into the winner's image; the shared losers' passes are the winner's
+/// paths and are not.
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
-    let mut pilots = Vec::new();
-    let mut early = Vec::new();
+    let seed = job.s.seed;
+    let fresh = || Halved::new(w, h, job.s.max_depth, seed);
+    let mut pilots = vec![(ALONE, fresh())];
+    let alone_label = format!("mix: pilot of {}", ALONE.name());
     let pilot = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX);
-    for m in CANDIDATES {
-        let mut r = Halved::new(w, h, job.s.max_depth, job.s.seed);
-        let label = format!("mix: pilot of {}", m.name());
-        // Two passes at least: the halves need one each. The error half way is the first
-        // point of the candidate's convergence (`exponent`).
-        r.render(job, m, Budget::Passes(2), u64::MAX, &label);
-        let render_to = |r: &mut Halved, end: f64| {
-            let more = end - r.even.seconds;
-            if more > 0.0 && !r.even.partial {
-                r.render(job, m, Budget::Seconds(more), u64::MAX, &label);
-            }
-        };
-        render_to(&mut r, 0.5 * pilot);
-        let point = (r.even.passes, mean(&r.errors(None, &r.level())));
-        render_to(&mut r, pilot);
-        let interrupted = r.even.partial;
-        early.push(point);
-        pilots.push((m, r));
-        if interrupted {
-            break;
+    let mut early = vec![
+        measured_pilot(&mut pilots, pilot, |p, budget| {
+            p[0].1.render(job, ALONE, budget, u64::MAX, &alone_label)
+        })[0],
+    ];
+    if !pilots[0].1.even.partial {
+        let start = Instant::now();
+        let mut shared: Vec<(Method, Halved)> = SHARED.iter().map(|m| (*m, fresh())).collect();
+        let mut per_pass = Vec::new();
+        for (m, r) in shared.iter_mut() {
+            let label = format!("mix: pilot of {}", m.name());
+            r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
+            per_pass.push(r.even.seconds / r.even.passes.max(1) as f64);
         }
+        let pilot = (SHARED_PILOT * job.s.seconds).min(SHARED_PILOT_MAX);
+        let left = pilot - start.elapsed().as_secs_f64();
+        early.extend(measured_pilot(&mut shared, left, |p, budget| {
+            Halved::render_views(p, job, budget, "mix: pilot of bpt, ibpt, lt")
+        }));
+        for ((_, r), t) in shared.iter_mut().zip(per_pass) {
+            r.even.seconds = t * r.even.passes as f64;
+        }
+        pilots.extend(shared);
     }
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
     let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
@@ -152,21 +165,50 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let mut pool = Pool::empty(w, h);
     let winner = pilots[best].0;
     for (i, (m, r)) in pilots.iter().enumerate() {
-        if i != best {
-            // BPT's and IBPT's passes of one seed follow the same paths: such a loser repeats
-            // the winner's pilot passes, and weighed as independent it would add their noise.
-            let repeats = holds_bpt(*m) && holds_bpt(winner);
-            pool.add(*m, r, errors[i], !repeats);
+        if i == best {
+            continue;
+        }
+        if *m == ALONE {
+            pool.add(*m, r, errors[i], true);
+        } else if *m == Method::Bpt && !serves_b(winner) {
+            // The shared losers' images are the winner's paths; BPT's sums still serve MMLT's
+            // b above the switch where the winner's passes do not.
+            pool.add(*m, r, errors[i], false);
         }
     }
     let (method, mut render) = pilots.swap_remove(best);
-    render.reseed(continuation_seed(job.s.seed));
+    render.reseed(continuation_seed(seed));
     Chosen {
         method,
         render,
         candidates,
         pool,
     }
+}
+
+/// Run `render(pilots, budget)` for half of `seconds`, measure each pilot's error there (the
+/// first point of its convergence, `exponent`), then on to `seconds`; two passes at least, as
+/// the halves need one each. Returns each pilot's (passes, error) half way.
+fn measured_pilot(
+    pilots: &mut [(Method, Halved)],
+    seconds: f64,
+    mut render: impl FnMut(&mut [(Method, Halved)], Budget),
+) -> Vec<(u64, f64)> {
+    let start = Instant::now();
+    render(pilots, Budget::Passes(2));
+    let mut render_to = |p: &mut [(Method, Halved)], end: f64| {
+        let more = end - start.elapsed().as_secs_f64();
+        if more > 0.0 && !p[0].1.even.partial {
+            render(p, Budget::Seconds(more));
+        }
+    };
+    render_to(pilots, 0.5 * seconds);
+    let points = pilots
+        .iter()
+        .map(|(_, r)| (r.even.passes, mean(&r.errors(None, &r.level()))))
+        .collect();
+    render_to(pilots, seconds);
+    points
 }
 
 /// MMLT's pilot on α·I: its start-up (bounded by half of what is left), then a share of rounds,

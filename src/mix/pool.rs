@@ -1,15 +1,14 @@
 //! The losing partner pilots' passes, kept. Every candidate estimates the same image, so a
 //! loser's render still counts: weighed by the inverse of its measured error beside the
-//! winner's, it lowers the OMC image's error by the share of the loser's time its rate allows
-//! (at 30 s two losing pilots are 6% of the budget). The pilots share the job's seed and the
-//! winner goes on with another (`pilot::continuation_seed`), so a loser is independent of all
-//! but the winner's pilot passes; where those are the same paths (IBPT's and BPT's) the loser's
-//! image is left out. Pilots whose passes hold BPT's strategies also serve MMLT's normalisation
-//! above the switch, where MMLT would otherwise render BPT passes of its own (2.3 s of 30 on
-//! `stress`).
+//! winner's, it lowers the OMC image's error by the share of the loser's time its rate allows.
+//! The pilots share the job's seed and the winner goes on with another
+//! (`pilot::continuation_seed`), so a loser is independent of all but the winner's pilot passes;
+//! where those are the same paths (the shared pilot's views) the loser's image is left out.
+//! Pilots whose passes serve MMLT's normalisation (`serves_b`) also do so above the switch,
+//! where MMLT would otherwise render BPT passes of its own (2.3 s of 30 on `stress`).
 
 use super::halved::Halved;
-use super::holds_bpt;
+use super::serves_b;
 use crate::film::Film;
 use crate::integrators::Method;
 use crate::render::Rendered;
@@ -40,7 +39,7 @@ impl Pool {
     /// Its depth sums serve MMLT's b whether or not its `image` is pooled: an image that is not
     /// independent of the winner's would add the noise they share.
     pub(super) fn add(&mut self, method: Method, r: &Halved, error: f64, image: bool) {
-        if holds_bpt(method) && r.even.passes > 0 {
+        if serves_b(method) && r.even.passes > 0 {
             add_sums(&mut self.tally.0, &r.tally());
             self.tally.1 += r.even.passes;
         }

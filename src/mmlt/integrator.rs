@@ -730,7 +730,7 @@ fn normalisation(
                 let mut row = vec![0.0f64; depths.len()];
                 for x in 0..w {
                     let own = y * w + x;
-                    let visit = |depth: u32, splat: Option<usize>, value: Rgb| {
+                    let visit = |_: usize, depth: u32, splat: Option<usize>, value: Rgb| {
                         let Some(slot) = depth.checked_sub(s.min_depth) else {
                             return;
                         };
@@ -743,7 +743,7 @@ fn normalisation(
                     let sample = (x, y);
                     trace_sample(
                         scene,
-                        Strategies::Bpt,
+                        &[Strategies::Bpt],
                         s.max_depth,
                         seed,
                         passes,

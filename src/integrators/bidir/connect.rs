@@ -31,6 +31,32 @@ pub fn connect(
     sampler: &mut impl Sampler,
     strategies: Strategies,
 ) -> Option<Connection> {
+    join(scene, light, cam, s, t, sampler)?.weighted(scene, light, cam, strategies)
+}
+
+/// Strategy (s, t) joined but not yet weighted: its path is the same whichever method's
+/// strategies weight it, so one join serves several methods (`weighted` for each). The main
+/// job's shared pilot weighs BPT's paths as BPT, IBPT and LT at once.
+pub struct Joined {
+    s: usize,
+    t: usize,
+    value: Rgb,
+    raster: Option<(f32, f32)>,
+    /// The light point sampled afresh for s = 1 and the two ends towards each other (s ≥ 1).
+    ends: Option<(Option<Vertex>, Ends)>,
+}
+
+/// Join strategy (s, t)'s sub-paths (a shadow ray for s ≥ 1): its unweighted value, or None
+/// where it carries nothing.
+#[inline(always)]
+pub fn join(
+    scene: &Scene,
+    light: &[Vertex],
+    cam: &[Vertex],
+    s: usize,
+    t: usize,
+    sampler: &mut impl Sampler,
+) -> Option<Joined> {
     debug_assert!(t >= 1 && t <= cam.len() && s <= light.len() && s + t >= 2);
     // Only the camera vertex is not on a surface, and t = 1 ends there.
     let pt = &cam[t - 1];
@@ -40,21 +66,25 @@ pub fn connect(
         if value == Rgb::ZERO || !value.is_finite() {
             return None;
         }
-        let weight = mis_weight(scene, light, cam, 0, t, None, strategies);
-        return weighted(value, weight, None);
+        return Some(Joined {
+            s,
+            t,
+            value,
+            raster: None,
+            ends: None,
+        });
     }
     // s = 1 samples the light point afresh (next-event estimation).
-    let l0;
-    let (qs, sampled) = if s == 1 && t > 1 {
+    let sampled = if s == 1 && t > 1 {
         if pt.delta || scene.lights.is_empty() {
             return None;
         }
         let (u_sel, u) = (sampler.next_1d(), sampler.next_2d());
-        l0 = Vertex::light(scene, &scene.sample_light(u_sel, u));
-        (&l0, Some(&l0))
+        Some(Vertex::light(scene, &scene.sample_light(u_sel, u)))
     } else {
-        (&light[s - 1], None)
+        None
     };
+    let qs = sampled.as_ref().unwrap_or(&light[s - 1]);
     if qs.delta || pt.delta {
         return None;
     }
@@ -79,19 +109,34 @@ pub fn connect(
     } else {
         scene.visible(pt.p, pt.n, qs.p, qs.n)
     };
-    if !visible {
-        return None;
-    }
-    let weight = mis_weight(scene, light, cam, s, t, Some((sampled, &ends)), strategies);
-    weighted(value, weight, raster)
+    visible.then_some(Joined {
+        s,
+        t,
+        value,
+        raster,
+        ends: Some((sampled, ends)),
+    })
 }
 
-fn weighted(value: Rgb, weight: f32, raster: Option<(f32, f32)>) -> Option<Connection> {
-    // A degenerate density (a grazing cosine of zero) must not poison a pixel with NaN forever.
-    weight.is_finite().then(|| Connection {
-        value: value * weight,
-        raster,
-    })
+impl Joined {
+    /// The joined path weighted by the balance heuristic over `strategies`, which must allow it.
+    #[inline(always)]
+    pub fn weighted(
+        &self,
+        scene: &Scene,
+        light: &[Vertex],
+        cam: &[Vertex],
+        strategies: Strategies,
+    ) -> Option<Connection> {
+        let joined = self.ends.as_ref().map(|(v, e)| (v.as_ref(), e));
+        let weight = mis_weight(scene, light, cam, self.s, self.t, joined, strategies);
+        // A degenerate density (a grazing cosine of zero) must not poison a pixel with NaN
+        // forever.
+        weight.is_finite().then(|| Connection {
+            value: self.value * weight,
+            raster: self.raster,
+        })
+    }
 }
 
 /// A connection's two end vertices evaluated towards each other: f and both densities, and the

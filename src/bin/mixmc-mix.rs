@@ -35,7 +35,7 @@ struct Args {
     /// Wall-clock budget of the whole job, in seconds.
     #[arg(long, default_value_t = 60.0)]
     time: f64,
-    /// The OMC method: `auto` pilots PT, IBPT and BPT and keeps the one whose measured error,
+    /// The OMC method: `auto` pilots PT, BPT, IBPT and LT and keeps the one whose measured error,
     /// projected to the budget, is smallest (the paper: ibpt for the Cornell scenes, lt for room
     /// and bathroom).
     #[arg(long, value_enum, default_value_t = Partner::Auto)]

@@ -1,10 +1,10 @@
 //! The main job (`mixmc-mix`): the whole method of the paper in one process at a time budget.
 //!
 //! By default the job measures before it commits. `mix` is a sequence of phases:
-//! 1. the OMC partner: short pilots of PT, IBPT and BPT (`pilot::partner`), the smallest error
-//!    projected to the budget (from each pilot's error and how fast it falls) wins and keeps its
-//!    passes; the losers' passes are pooled into its image at the end, weighed by their
-//!    measured errors (`pool`);
+//! 1. the OMC partner: a short pilot of PT and one of BPT's sub-paths weighed as BPT, IBPT and
+//!    LT at once (`pilot::partner`); the smallest error projected to the budget (from each
+//!    pilot's error and how fast it falls) wins and keeps its passes; PT's, if it loses, are
+//!    pooled into its image at the end, weighed by their measured errors (`pool`);
 //! 2. the snapshot the mask is built from (the paper builds it from an early snapshot, 64–128
 //!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
 //!    that is already above the switch ends the snapshot there;
@@ -53,7 +53,7 @@ use std::time::Instant;
 /// The OMC partner: one method, or the one whose pilot projects the smallest error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Partner {
-    /// Pilots of PT, IBPT and BPT; the smallest error projected to the budget wins.
+    /// Pilots of PT, BPT, IBPT and LT; the smallest error projected to the budget wins.
     Auto,
     Pt,
     Lt,

@@ -79,8 +79,9 @@ impl Halved {
     /// Go on with passes of BPT's sub-paths weighed as each of the bidirectional methods of
     /// `views` at once (`bidir::render_views`), each into its own render, until `budget` is
     /// spent: one render of each, from the same paths, for the cost of the method that joins
-    /// the most. Every render's `seconds` is the whole time: the caller knows what each
-    /// method's passes cost alone.
+    /// the most. The renders must hold the same passes of the same seed: the first one's count
+    /// numbers the passes of all. Every render's `seconds` is the whole time: the caller knows
+    /// what each method's passes cost alone.
     pub(super) fn render_views(
         views: &mut [(Method, Halved)],
         job: &Job,

@@ -97,13 +97,13 @@ impl Chosen {
 /// A pilot of PT alone and one shared by BPT, IBPT and LT (`SHARED`), all of the job's seed.
 /// The shared pilot's first pass is each candidate's alone, timed: what one of its passes costs,
 /// which the shared passes cannot tell (they pay for BPT's joins whatever they weigh), and the
-/// same values its view would have had (`bidir::render_views`). The candidate whose error, projected from its pilot to the job's
-/// budget at its own measured pace (`exponent`), is smallest wins and goes on. A shared
-/// candidate's seconds are its passes at its own cost per pass: what its render would have cost
-/// alone. A candidate's error is its variance's plus the light it has missing against BPT's
-/// view (`estimate::missing_light`; BPT holds every strategy, so it misses least). PT's pilot,
-/// if it loses, is pooled into the winner's image; the shared losers' passes are the winner's
-/// paths and are not.
+/// same values its view would have had (`bidir::render_views`). The candidate whose error,
+/// projected from its pilot to the job's budget at its own measured pace (`exponent`), is
+/// smallest wins and goes on. A shared candidate's seconds are its passes at its own cost per
+/// pass: what its render would have cost alone. A candidate's error is its variance's plus the
+/// light it has missing against BPT's view (`estimate::missing_light`; BPT holds every
+/// strategy, so it misses least). PT's pilot, if it loses, is pooled into the winner's image;
+/// the shared losers' passes are the winner's paths and are not.
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
     let seed = job.s.seed;

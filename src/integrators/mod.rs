@@ -45,13 +45,9 @@ impl Method {
     /// Add pass number `pass` of a render with `seed` to `film`. Passes are independent: the
     /// same (seed, pass) always adds the same values, whatever the thread count.
     pub fn render_pass(self, scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {
-        match self {
-            Method::Pt => pt::render_pass(scene, max_depth, seed, pass, film),
-            Method::Lt => bidir::render_pass(scene, Strategies::Lt, max_depth, seed, pass, film),
-            Method::Ibpt => {
-                bidir::render_pass(scene, Strategies::Ibpt, max_depth, seed, pass, film)
-            }
-            Method::Bpt => bidir::render_pass(scene, Strategies::Bpt, max_depth, seed, pass, film),
+        match self.strategies() {
+            None => pt::render_pass(scene, max_depth, seed, pass, film),
+            Some(st) => bidir::render_pass(scene, st, max_depth, seed, pass, film),
         }
     }
 }

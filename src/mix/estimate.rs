@@ -138,6 +138,38 @@ pub fn unseen_error(
     sum.max(0.0) / 3.0 / (size.0 * size.1) as f64
 }
 
+/// The image-mean LDR squared error of `m` over the `select`ed pixels, all of it: what its
+/// halves show and what they share, as an independent unbiased render shows it. With the truth
+/// `T`, `E(m − r)² = E(m − T)² + E(r − T)²`, and `reference`'s halves estimate the last term
+/// per pixel, so the rest is `m`'s whole error. A spike of `reference` lies in one of its halves
+/// and so in both terms, and cancels in the pixel it hit; the pixels' sum is clamped only as a
+/// whole, as noise is as likely below its expectation as above it.
+///
+/// MMLT's halves (two groups of chains) share the normalisation b and the chains' slowness to
+/// visit the light through glass: on cornell-torus at 120 s its in-mask error was twice what
+/// its halves showed (docs/main-job.md, tenth round).
+pub fn total_error(m: &Halves, reference: &Halves, level: &[[f32; 3]], select: &[bool]) -> f64 {
+    let (mm, mr) = (m.whole(), reference.whole());
+    let vr = reference.variance();
+    let sum: f64 = (0..mm.len())
+        .into_par_iter()
+        .filter(|&p| select[p])
+        .map(|p| {
+            (0..3)
+                .map(|c| {
+                    let d = (mm[p][c] - mr[p][c]) as f64;
+                    if d.is_finite() {
+                        ldr_slope(level[p][c]).powi(2) * (d * d - vr[p][c])
+                    } else {
+                        0.0
+                    }
+                })
+                .sum::<f64>()
+        })
+        .sum();
+    sum.max(0.0) / 3.0 / mm.len().max(1) as f64
+}
+
 /// Per block of `BLOCK`² pixels (only the `select`ed ones, all without) and channel: the
 /// difference of the two renders' block means (`m` − `reference`), and its square beyond what
 /// both renders' noise explains (negative where it explains more), carried into LDR at the
@@ -408,6 +440,59 @@ mod tests {
         let right: Vec<bool> = left.iter().map(|l| !l).collect();
         let elsewhere = unseen_error(&half_dark, &reference, &level, (w, h), &right);
         assert!(elsewhere < 0.02 * want, "{elsewhere}");
+    }
+
+    /// A render whose two halves share an error δ (both too dark by it) shows only its noise
+    /// in its halves; against an independent unbiased render, its whole error σ²/2 + δ² is
+    /// found, though that render's noise is five times its own and holds spikes, and only in
+    /// the selected pixels.
+    #[test]
+    fn the_whole_error_counts_what_the_halves_share() {
+        let n = 40_000usize;
+        let (level, sm, sr, delta) = (0.3f32, 0.01f32, 0.05f32, 0.01f32);
+        let mut rng = Rng::new(5, 0, 0);
+        let mut gauss = || {
+            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
+            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
+        };
+        let mut noisy = |mean: f32, s: f32| -> Vec<[f32; 3]> {
+            (0..n).map(|_| [mean + s * gauss(); 3]).collect()
+        };
+        let (ma, mb) = (noisy(level - delta, sm), noisy(level - delta, sm));
+        let (ra, mut rb) = (noisy(level, sr), noisy(level, sr));
+        let m = Halves::equal(&ma, &mb);
+        let levels = vec![[level; 3]; n];
+        let all = vec![true; n];
+        let slope2 = ldr_slope(level).powi(2);
+        let shown = m.ldr_error(&levels).iter().sum::<f64>() / n as f64;
+        let want = slope2 * (sm as f64 * sm as f64 / 2.0 + delta as f64 * delta as f64);
+        assert!(
+            (shown / (want / 3.0) - 1.0).abs() < 0.05,
+            "{shown} vs {want}"
+        );
+        let whole = total_error(&m, &Halves::equal(&ra, &rb), &levels, &all);
+        assert!((whole / want - 1.0).abs() < 0.1, "{whole} vs {want}");
+        // A spike of 20 in one pixel of 200 of the reference, whose level (the smoothed beauty
+        // in the job) it lifts above the clamp: it is in the reference's variance as in the
+        // difference, and its pixel's LDR error is capped.
+        let mut spiked = levels.clone();
+        for p in (0..n).step_by(200) {
+            rb[p] = [20.0; 3];
+            spiked[p] = [10.0; 3];
+        }
+        let whole = total_error(&m, &Halves::equal(&ra, &rb), &spiked, &all);
+        assert!(
+            (whole / want - 1.0).abs() < 0.1,
+            "spikes: {whole} vs {want}"
+        );
+        // Only the selected pixels count, towards the image's mean.
+        let left: Vec<bool> = (0..n).map(|p| p % 2 == 0).collect();
+        let half = total_error(&m, &Halves::equal(&ra, &rb), &spiked, &left);
+        assert!(
+            (half / (want / 2.0) - 1.0).abs() < 0.15,
+            "{half} vs {}",
+            want / 2.0
+        );
     }
 
     #[test]

@@ -3,7 +3,9 @@
 //! renders' halves (`estimate`), split at the mask.
 
 use super::Job;
-use super::estimate::{Halves, MixHalf, add, film_means, smooth, unseen_error, weight_in_mask};
+use super::estimate::{
+    Halves, MixHalf, add, film_means, smooth, total_error, unseen_error, weight_in_mask,
+};
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
@@ -178,6 +180,10 @@ impl Halved {
     /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
     /// render's halves and MMLT's (`estimate::weight_in_mask`), and MMLT's error inside the
     /// mask that its halves do not show (`estimate::unseen_error`, against OMC's indirect light).
+    /// Not its whole error less what its halves show (`estimate::total_error`, which the
+    /// decision uses): as the weight's addend that raised OMC's weight on cornell-water from
+    /// 0.15 to 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on the torus
+    /// (docs/main-job.md, eleventh round).
     pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
         let [(da, ia), (db, ib)] = self.half_means();
         let [ma, mb] = run.halves();
@@ -262,11 +268,20 @@ impl OmcErrors {
         }
     }
 
-    /// MMLT's estimated image-mean LDR squared errors of α·I as its run stands, outside the
-    /// mask and inside it, from its two halves at OMC's level.
-    pub(super) fn mcmc(&self, run: &MmltRun, alpha: &[f32]) -> [f64; 2] {
+    /// MMLT's estimated image-mean LDR squared errors of α·I as its run stands, at OMC's
+    /// level: outside the mask and inside it from its two halves, and inside it in whole, from
+    /// its difference with OMC's indirect light there (`estimate::total_error`).
+    pub(super) fn mcmc(&self, omc: &Halved, run: &MmltRun, alpha: &[f32]) -> [f64; 3] {
         let [a, b] = run.halves();
-        split_mean(&Halves::equal(&a, &b).ldr_error(&self.level), alpha)
+        let m = Halves::equal(&a, &b);
+        let [out, inside] = split_mean(&m.ldr_error(&self.level), alpha);
+        let [(_, ia), (_, ib)] = omc.half_means();
+        let select: Vec<bool> = alpha
+            .iter()
+            .map(|a| crate::composite::is_complex(*a))
+            .collect();
+        let whole = total_error(&m, &omc.as_halves(&ia, &ib), &self.level, &select);
+        [out, inside, whole]
     }
 
     /// The share of the beauty's error that is the indirect light inside the mask: what the

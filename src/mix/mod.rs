@@ -688,6 +688,7 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     }
     image.set_float("mixmc.rate.mcmc_out", r.mcmc_out);
     image.set_float("mixmc.rate.mcmc_in", r.mcmc_in);
+    image.set_float("mixmc.rate.mcmc_in_halves", r.mcmc_in_halves);
     image.set_float("mixmc.predicted.omc_alone", d.predicted_omc);
     image.set_float("mixmc.predicted.mix", d.predicted_mix);
     image.set_float("mixmc.predicted.omc_weight", d.omc_weight);

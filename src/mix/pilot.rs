@@ -228,14 +228,18 @@ pub(super) fn mcmc<'a>(
     };
     let mut run = MmltRun::start(job.scene, Some(alpha), &settings, 2);
     run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
-    let [mcmc_out, mcmc_in] = e.mcmc(&run, alpha);
+    // Inside the mask, MMLT's whole error as OMC's render shows it, where that is more than its
+    // halves show: the decision at 1/t from the halves alone mixed on cornell-torus at 120 s,
+    // and lost (docs/main-job.md, eleventh round).
+    let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, &run, alpha);
     let (u, v) = (omc.even.seconds, run.result().chain_seconds);
     let rates = Rates {
         omc_alone: e.alone * u,
         omc_out: e.out * u,
         omc_in: Quadratic(e.inside.0.map(|c| c * u)),
         mcmc_out: mcmc_out * v,
-        mcmc_in: mcmc_in * v,
+        mcmc_in: mcmc_in.max(mcmc_whole) * v,
+        mcmc_in_halves: mcmc_in * v,
         omc_seconds: u,
         mcmc_seconds: v,
     };

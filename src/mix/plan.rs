@@ -126,9 +126,12 @@ pub struct Rates {
     pub omc_out: f64,
     /// OMC's `D + w·I` inside the mask.
     pub omc_in: Quadratic,
-    /// MMLT on α·I outside the mask (ε·I) and inside it (I).
+    /// MMLT on α·I outside the mask (ε·I) and inside it (I): inside, its whole error as OMC's
+    /// render shows it, where that is more than its halves show (`estimate::total_error`).
     pub mcmc_out: f64,
     pub mcmc_in: f64,
+    /// MMLT's rate inside the mask as its halves alone show it.
+    pub mcmc_in_halves: f64,
     /// Seconds OMC and MMLT's chains have rendered so far.
     pub omc_seconds: f64,
     pub mcmc_seconds: f64,
@@ -255,6 +258,7 @@ mod tests {
             omc_in: Quadratic([d, 0.0, i]),
             mcmc_out: 0.0,
             mcmc_in,
+            mcmc_in_halves: mcmc_in,
             omc_seconds: 2.0,
             mcmc_seconds: 1.0,
         }

@@ -352,9 +352,9 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
 }
 
 /// An MMLT render that can be stopped and continued: the main job renders a pilot, measures it,
-/// and only then decides how long MMLT goes on. With two groups, the chains are dealt
-/// alternately (within each depth) into two independent halves whose images differ by noise
-/// alone, which estimates the render's error without a reference.
+/// and only then decides how long MMLT goes on. With two groups, the chains form two
+/// independent halves, each started from its own half of the bootstrap, whose images differ by
+/// noise alone, which estimates the render's error without a reference.
 pub struct MmltRun<'a> {
     scene: &'a Scene,
     alpha: Option<&'a [f32]>,
@@ -411,12 +411,9 @@ impl<'a> MmltRun<'a> {
         } else {
             (b_depth, "bpt")
         };
-        let mut chains = start_chains(scene, alpha, s, &depths, &weights, n_boot, pixels);
+        let mut chains = start_chains(scene, alpha, s, (&depths, groups), &weights, n_boot, pixels);
         let mut per_depth = vec![0u64; groups * nd];
-        let mut rank = vec![0usize; nd];
-        for c in &mut chains {
-            c.group = rank[c.slot] % groups;
-            rank[c.slot] += 1;
+        for c in &chains {
             per_depth[c.group * nd + c.slot] += c.quota;
         }
         let band_len = pixels.div_ceil(SPLAT_BANDS).max(1);
@@ -807,19 +804,86 @@ fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
 }
 
 /// Start `s.chains` chains (at most one per pixel's mutation of a round) from bootstrap samples
-/// picked ∝ weight by stratified (systematic) resampling, each with its own mutation key. Every
-/// depth whose bootstrap found light first gets one chain of its own (picked ∝ weight within the
-/// depth): a depth left without chains would drop its b_d from the image, and resampling alone
-/// leaves a depth with a share below 1/chains (the caustic scene's depth 8: 0.2%) out at random.
+/// picked ∝ weight ([`pick_starts`]), each with its own mutation key, dealt into `groups`
+/// independent halves. With two, each half picks its chains from its own half of the bootstrap
+/// (every other sample of each depth): the chains' start is a sample of the target, slow to be
+/// forgotten where the light is hard to reach, and halves picked from one pool share its
+/// sampling error. On cornell-torus (120 s) MMLT's in-mask error was 3.3× what such halves
+/// showed, while runs of two seeds averaged to 0.62 of one's error (docs/main-job.md, eleventh
+/// round).
 fn start_chains(
     scene: &Scene,
     alpha: Option<&[f32]>,
     s: &MmltSettings,
-    depths: &[u32],
+    (depths, groups): (&[u32], usize),
     weights: &[f32],
     n_boot: usize,
     pixels: usize,
 ) -> Vec<Chain> {
+    let n = s.chains.clamp(1, pixels);
+    let offset = Rng::new(s.seed ^ PICK_KEY, 0, 0).next_1d() as f64;
+    let picks = grouped_picks(weights, (n_boot, depths.len()), n, groups, offset);
+    // Rounding can leave the capped sampling one short of `n`.
+    let chains = picks.len();
+    picks
+        .par_iter()
+        .enumerate()
+        .map(|(c, &(id, group))| {
+            let slot = id / n_boot;
+            let depth = depths[slot];
+            let boot = boot_id(id % n_boot, slot, depths.len());
+            let chain_key = (weights.len() + c) as u64;
+            let mut sampler = MltSampler::new(s.seed, boot, chain_key, s.sigma, s.large_step);
+            let current = evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth));
+            sampler.accept();
+            // Round mutations split as evenly as possible over the chains.
+            let quota = ((c + 1) * pixels / chains - c * pixels / chains) as u64;
+            Chain {
+                depth,
+                slot,
+                sampler,
+                current,
+                accepted: 0,
+                quota,
+                group,
+                splats: Vec::new(),
+            }
+        })
+        .collect()
+}
+
+/// `n` bootstrap samples (indices into `weights`, `n_boot` per depth of `nd`) and the group
+/// each starts a chain of: group `g` of `groups` picks from the samples whose index within their
+/// depth is `g` modulo `groups`.
+fn grouped_picks(
+    weights: &[f32],
+    (n_boot, nd): (usize, usize),
+    n: usize,
+    groups: usize,
+    offset: f64,
+) -> Vec<(usize, usize)> {
+    if groups < 2 {
+        let picks = pick_starts(weights, n_boot, nd, n, offset);
+        return picks.into_iter().map(|id| (id, 0)).collect();
+    }
+    (0..groups)
+        .flat_map(|g| {
+            let own: Vec<f32> = (weights.iter().enumerate())
+                .map(|(i, &y)| if (i % n_boot) % groups == g { y } else { 0.0 })
+                .collect();
+            let k = n / groups + usize::from(g < n % groups);
+            let picks = pick_starts(&own, n_boot, nd, k, offset);
+            picks.into_iter().map(move |id| (id, g))
+        })
+        .collect()
+}
+
+/// `n` bootstrap samples (indices into `weights`, `n_boot` per depth) picked ∝ weight by
+/// stratified (systematic) resampling from `offset`. Every depth whose bootstrap found light
+/// first gets one chain of its own (picked ∝ weight within the depth): a depth left without
+/// chains would drop its b_d from the image, and resampling alone leaves a depth with a share
+/// below 1/chains (the caustic scene's depth 8: 0.2%) out at random.
+fn pick_starts(weights: &[f32], n_boot: usize, nd: usize, n: usize, offset: f64) -> Vec<usize> {
     let mut cdf = Vec::with_capacity(weights.len());
     let mut total = 0.0f64;
     for &y in weights {
@@ -829,11 +893,9 @@ fn start_chains(
     if total <= 0.0 {
         return Vec::new();
     }
-    let n = s.chains.clamp(1, pixels);
-    let offset = Rng::new(s.seed ^ PICK_KEY, 0, 0).next_1d() as f64;
     let pick = |target: f64| cdf.partition_point(|&x| x <= target).min(weights.len() - 1);
     // Cumulative weight before each depth's samples, and after its last.
-    let bounds: Vec<(f64, f64)> = (0..depths.len())
+    let bounds: Vec<(f64, f64)> = (0..nd)
         .map(|d| {
             let before = if d == 0 { 0.0 } else { cdf[d * n_boot - 1] };
             (before, cdf[(d + 1) * n_boot - 1])
@@ -855,33 +917,7 @@ fn start_chains(
     } else {
         picks.extend(capped_picks(weights, rest, offset));
     }
-    // Rounding can leave the capped sampling one short of `n`.
-    let chains = picks.len();
     picks
-        .par_iter()
-        .enumerate()
-        .map(|(c, &id)| {
-            let slot = id / n_boot;
-            let depth = depths[slot];
-            let boot = boot_id(id % n_boot, slot, depths.len());
-            let chain_key = (weights.len() + c) as u64;
-            let mut sampler = MltSampler::new(s.seed, boot, chain_key, s.sigma, s.large_step);
-            let current = evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth));
-            sampler.accept();
-            // Round mutations split as evenly as possible over the chains.
-            let quota = ((c + 1) * pixels / chains - c * pixels / chains) as u64;
-            Chain {
-                depth,
-                slot,
-                sampler,
-                current,
-                accepted: 0,
-                quota,
-                group: 0,
-                splats: Vec::new(),
-            }
-        })
-        .collect()
 }
 
 /// The output image of DESIGN §3 (`R,G,B` = I_mcmcα) with its header attributes.
@@ -930,7 +966,34 @@ pub fn mcmc_image(
 
 #[cfg(test)]
 mod tests {
-    use super::capped_picks;
+    use super::{capped_picks, grouped_picks, pick_starts};
+
+    /// Two groups start their chains from disjoint halves of the bootstrap (no sample starts
+    /// chains of both, so their images share no start), half the chains each, and each still
+    /// gives every lit depth a chain; one group picks as before, from every sample.
+    #[test]
+    fn each_group_starts_from_its_own_half_of_the_bootstrap() {
+        // Two depths of 8 samples; depth 1 holds one lit sample per parity.
+        let mut w = vec![1.0f32; 8];
+        w.extend([0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.2, 0.0]);
+        let picks = grouped_picks(&w, (8, 2), 6, 2, 0.37);
+        assert_eq!(picks.len(), 6);
+        for g in 0..2 {
+            let own: Vec<usize> = (picks.iter().filter(|p| p.1 == g)).map(|p| p.0).collect();
+            assert_eq!(own.len(), 3, "group {g}: {own:?}");
+            assert!(own.iter().all(|id| id % 8 % 2 == g), "group {g}: {own:?}");
+            assert!(
+                own.iter().any(|&id| id >= 8),
+                "group {g} lacks depth 1: {own:?}"
+            );
+        }
+        let shared = (picks.iter()).any(|a| picks.iter().any(|b| a.0 == b.0 && a.1 != b.1));
+        assert!(!shared, "a sample starts chains of both groups: {picks:?}");
+        let one = grouped_picks(&w, (8, 2), 6, 1, 0.37);
+        assert!(one.iter().all(|p| p.1 == 0));
+        let plain = pick_starts(&w, 8, 2, 6, 0.37);
+        assert_eq!(one.iter().map(|p| p.0).collect::<Vec<_>>(), plain);
+    }
 
     #[test]
     fn capped_picks_are_distinct_and_otherwise_follow_the_weights() {

@@ -145,9 +145,9 @@ pub fn unseen_error(
 /// and so in both terms, and cancels in the pixel it hit; the pixels' sum is clamped only as a
 /// whole, as noise is as likely below its expectation as above it.
 ///
-/// MMLT's halves (two groups of chains) share the normalisation b and the chains' slowness to
-/// visit the light through glass: on cornell-torus at 120 s its in-mask error was twice what
-/// its halves showed (docs/main-job.md, tenth round).
+/// MMLT's halves (two groups of chains) share the normalisation b and the chains' start-up
+/// bias: on cornell-torus a quarter of MMLT's in-mask error at 20 s was common to runs of two
+/// seeds, and this estimate came out at 1.4–2.3× its halves' (docs/main-job.md, eleventh round).
 pub fn total_error(m: &Halves, reference: &Halves, level: &[[f32; 3]], select: &[bool]) -> f64 {
     let (mm, mr) = (m.whole(), reference.whole());
     let vr = reference.variance();

@@ -807,10 +807,8 @@ fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
 /// picked ∝ weight ([`pick_starts`]), each with its own mutation key, dealt into `groups`
 /// independent halves. With two, each half picks its chains from its own half of the bootstrap
 /// (every other sample of each depth): the chains' start is a sample of the target, slow to be
-/// forgotten where the light is hard to reach, and halves picked from one pool share its
-/// sampling error. On cornell-torus (120 s) MMLT's in-mask error was 3.3× what such halves
-/// showed, while runs of two seeds averaged to 0.62 of one's error (docs/main-job.md, eleventh
-/// round).
+/// forgotten where the light is hard to reach, and halves picked from one pool would share its
+/// sampling error, which their difference cannot show.
 fn start_chains(
     scene: &Scene,
     alpha: Option<&[f32]>,

@@ -181,8 +181,8 @@ impl Halved {
     /// render's halves and MMLT's (`estimate::weight_in_mask`), and MMLT's error inside the
     /// mask that its halves do not show (`estimate::unseen_error`, against OMC's indirect light).
     /// Not its whole error less what its halves show (`estimate::total_error`, which the
-    /// decision uses): as the weight's addend that raised OMC's weight on cornell-water from
-    /// 0.15 to 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on the torus
+    /// decision uses): in the weight that raised OMC's share on cornell-water from 0.15 to
+    /// 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on the torus
     /// (docs/main-job.md, eleventh round).
     pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
         let [(da, ia), (db, ib)] = self.half_means();

@@ -464,12 +464,10 @@ mod tests {
         let levels = vec![[level; 3]; n];
         let all = vec![true; n];
         let slope2 = ldr_slope(level).powi(2);
+        let noise = slope2 * sm as f64 * sm as f64 / 2.0;
         let shown = m.ldr_error(&levels).iter().sum::<f64>() / n as f64;
-        let want = slope2 * (sm as f64 * sm as f64 / 2.0 + delta as f64 * delta as f64);
-        assert!(
-            (shown / (want / 3.0) - 1.0).abs() < 0.05,
-            "{shown} vs {want}"
-        );
+        assert!((shown / noise - 1.0).abs() < 0.05, "{shown} vs {noise}");
+        let want = noise + slope2 * delta as f64 * delta as f64;
         let whole = total_error(&m, &Halves::equal(&ra, &rb), &levels, &all);
         assert!((whole / want - 1.0).abs() < 0.1, "{whole} vs {want}");
         // A spike of 20 in one pixel of 200 of the reference, whose level (the smoothed beauty

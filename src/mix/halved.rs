@@ -187,10 +187,7 @@ impl Halved {
     pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
         let [(da, ia), (db, ib)] = self.half_means();
         let [ma, mb] = run.halves();
-        let inside: Vec<bool> = alpha
-            .iter()
-            .map(|a| crate::composite::is_complex(*a))
-            .collect();
+        let inside = complex_pixels(alpha);
         let size = (self.odd.width, self.odd.height);
         let unseen = unseen_error(
             &Halves::equal(&ma, &mb),
@@ -224,6 +221,14 @@ impl Halved {
 
 pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Which pixels the mask gives MMLT (`composite::is_complex`).
+fn complex_pixels(alpha: &[f32]) -> Vec<bool> {
+    alpha
+        .iter()
+        .map(|a| crate::composite::is_complex(*a))
+        .collect()
 }
 
 /// Each pixel's share of an image-mean error, summed outside and inside the mask.
@@ -276,10 +281,7 @@ impl OmcErrors {
         let m = Halves::equal(&a, &b);
         let [out, inside] = split_mean(&m.ldr_error(&self.level), alpha);
         let [(_, ia), (_, ib)] = omc.half_means();
-        let select: Vec<bool> = alpha
-            .iter()
-            .map(|a| crate::composite::is_complex(*a))
-            .collect();
+        let select = complex_pixels(alpha);
         let whole = total_error(&m, &omc.as_halves(&ia, &ib), &self.level, &select);
         [out, inside, whole]
     }

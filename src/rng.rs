@@ -56,23 +56,12 @@ impl Rng {
         self.dim += 1;
         v
     }
-}
 
-impl Rng {
-    /// An independent generator keyed by this one's key and `index`: one hash, where `new` takes
-    /// three, for callers that need many keyed generators per (seed, stream, index).
+    /// 64 random bits keyed by this generator's key and `index`: one hash, for callers that
+    /// need one number per index (MMLT's dimensions, which are read in any order).
     #[inline]
-    pub fn fork(&self, index: u64) -> Rng {
-        Rng {
-            key: mix64(self.key ^ index.wrapping_mul(0xd6e8_feb8_6659_fd93)),
-            dim: 0,
-        }
-    }
-
-    /// Pass over `n` numbers without computing them: what follows is as if they were drawn.
-    #[inline]
-    pub fn skip(&mut self, n: u64) {
-        self.dim += n;
+    pub fn hash(&self, index: u64) -> u64 {
+        mix64(self.key ^ index.wrapping_mul(0xd6e8_feb8_6659_fd93))
     }
 }
 

@@ -1,8 +1,9 @@
 //! Multiplexed Metropolis light transport on the (masked) indirect light: the MCMC half of the
-//! paper's method (DESIGN §1, §5). `sampler` is the primary-sample-space state and its mutations,
-//! `integrator` the bootstrap, the chains and the splatting.
+//! paper's method (DESIGN §1, §5). `sampler` is the primary-sample-space state and its mutations
+//! (its Gaussian steps from `normal`), `integrator` the bootstrap, the chains and the splatting.
 
 pub mod integrator;
+mod normal;
 pub mod sampler;
 
 pub use integrator::{

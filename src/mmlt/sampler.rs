@@ -9,10 +9,13 @@
 //! Mutations are lazy: a dimension is brought up to date only when it is read, with one Gaussian
 //! step of σ·√(accepted iterations since it was last modified), which has the same distribution as
 //! that many eager steps (sums of Gaussians), or with a fresh uniform when a large step was accepted
-//! since. Every random number is keyed by (seed, chain, mutation, dimension), so a value does not
-//! depend on the order dimensions are read in, and a chain does not depend on threads.
+//! since. Every random number is keyed by (seed, chain, mutation, dimension), so a value does
+//! not depend on the order dimensions are read in, and a chain does not depend on threads.
+//! Each dimension read takes one hash of (mutation, dimension): its low bits a uniform, its high
+//! bits a Gaussian step (`normal`'s ziggurat).
 
-use crate::rng::{Rng, Sampler};
+use super::normal::normal;
+use crate::rng::{Rng, Sampler, to_unit_f32};
 
 /// Stream of the strategy choice, film position and camera sub-path.
 pub const CAMERA_STREAM: usize = 0;
@@ -71,7 +74,7 @@ pub struct MltSampler {
     accept_u: f32,
     stream: usize,
     sample_index: usize,
-    /// Keyed by (seed, chain or init, mutation): each dimension's numbers fork from it.
+    /// Keyed by (seed, chain or init, mutation): each dimension's bits are hashed from it.
     mutation_rng: Rng,
 }
 
@@ -150,9 +153,11 @@ impl MltSampler {
 
     /// Bring dimension `index` up to date for the current proposal.
     fn ensure_ready(&mut self, index: usize) {
-        // Random numbers of this dimension for this mutation, independent of the order in
-        // which dimensions are read: a catch-up uniform, then the step's one or two numbers.
-        let mut r = self.mutation_rng.fork(index as u64);
+        // This dimension's random bits for this mutation, independent of the order in which
+        // dimensions are read: the low 24 a uniform (a catch-up or a large step), the high 40
+        // a small step.
+        let bits = self.mutation_rng.hash(index as u64);
+        let uniform = to_unit_f32(bits << 40);
         if index >= self.x.len() {
             // A dimension never read before: in an eager chain it would hold a uniform number
             // (from the first state or a later accepted large step), so it starts as one.
@@ -176,18 +181,15 @@ impl MltSampler {
         // Saved before the catch-up, so a rejection leaves the state exactly as it was; a stale
         // value is caught up again, with an equally uniform number, when next read.
         xi.save();
-        if !large && (xi.last_modified == UNREAD || xi.last_modified < last_large) {
-            xi.value = r.next_1d();
-            xi.last_modified = last_large;
-        } else {
-            // A large step replaces the value anyway; an up-to-date one needs no catch-up.
-            r.skip(1);
-        }
         if large {
-            xi.value = r.next_1d();
+            xi.value = uniform;
         } else {
+            if xi.last_modified == UNREAD || xi.last_modified < last_large {
+                xi.value = uniform;
+                xi.last_modified = last_large;
+            }
             let n_small = iteration - xi.last_modified;
-            let step = gaussian(r.next_1d(), r.next_1d()) * sigma * (n_small as f32).sqrt();
+            let step = normal(bits >> 24) * sigma * (n_small as f32).sqrt();
             let mut v = xi.value + step;
             v -= v.floor();
             // -tiny wraps to exactly 1.0 in f32; 1 ≡ 0 on the torus.
@@ -198,12 +200,6 @@ impl MltSampler {
         }
         xi.last_modified = iteration;
     }
-}
-
-/// A standard normal number from two uniforms (Box–Muller).
-fn gaussian(u1: f32, u2: f32) -> f32 {
-    let r = (-2.0 * (1.0 - u1).ln()).sqrt();
-    r * (std::f32::consts::TAU * u2).cos()
 }
 
 impl Sampler for MltSampler {

@@ -72,11 +72,16 @@ fn mmlt(scene: &str, out: &Path, extra: &[&str]) -> ExrImage {
 
 /// compare_images.py's verdict at the issue's tolerances (image mean 2%, 32×32 blocks 5%).
 fn assert_close(a: &Path, b: &Path) {
+    assert_close_within(a, b, "0.05");
+}
+
+/// compare_images.py's verdict: image mean within 2%, each 32×32 block within `block_tol`.
+fn assert_close_within(a: &Path, b: &Path, block_tol: &str) {
     let out = cmd_output(python_tool("compare_images.py").arg(a).arg(b).args([
         "--mean-tol",
         "0.02",
         "--block-tol",
-        "0.05",
+        block_tol,
     ]));
     assert!(
         out.status.success(),
@@ -110,13 +115,31 @@ fn indirect_converges_to_bpt_indirect_cornell() {
     converges(CORNELL, "ind-cornell", &[], false);
 }
 
-/// Every seed of 1–6 (worst 32×32 block 3.7, 1.9, 1.7, 3.0, 2.1, 4.0%; before b came from BPT
-/// passes and starts were capped, seeds 1 and 4 missed with 5.2% and 5.9%).
+/// Seeds 1–6 merged (`mixmc-merge`): six independent runs shrink each block's noise by √6, so
+/// the merged blocks within 3% (against one run's 5%) test MMLT's bias, not one seed's luck.
+/// One run's worst 32×32 block is a heavy-tailed statistic: seeds 1–12 gave 3.9, 2.4, 2.3,
+/// 2.8, 1.8, 4.5, 7.8, 3.2, 2.5, 5.1, 3.7, 3.7% with Box–Muller steps and 3.2, 5.0, 2.5, 2.3,
+/// 2.4, 2.2, 2.3, 3.7, 2.3, 3.1, 3.2, 1.6% with the ziggurat's (BENCHMARKS.md, "MMLT's small
+/// step"), so "every seed within 5%", which this test asserted before, held for seeds 1–6 by
+/// luck; merged, seeds 1–6 and 7–12 gave 1.4% and 1.3%, and 2.0% and 1.1%.
 #[test]
-fn indirect_converges_to_bpt_indirect_caustic_at_every_seed() {
-    for seed in 1..=6 {
-        converges_at(CAUSTIC, "ind-caustic", &seed.to_string(), &[], false);
-    }
+fn indirect_converges_to_bpt_indirect_caustic_over_seeds() {
+    let dir = TempDir::new("ind-caustic-seeds");
+    let (_, indirect) = reference(CAUSTIC);
+    let runs: Vec<String> = (1..=6)
+        .map(|seed| {
+            let out = dir.join(&format!("s{seed}.exr"));
+            let seed = seed.to_string();
+            let args = ["--mutations-per-pixel", "1024", "--seed", &seed];
+            mmlt(&fixture(CAUSTIC), &out, &args);
+            out.to_str().unwrap().to_string()
+        })
+        .collect();
+    let merged = dir.join("merged.exr");
+    let mut args: Vec<&str> = runs.iter().map(String::as_str).collect();
+    args.extend(["-o", merged.to_str().unwrap()]);
+    run_ok("mixmc-merge", &args);
+    assert_close_within(&merged, &indirect, "0.03");
 }
 
 #[test]
@@ -149,12 +172,16 @@ fn channel_mean(img: &ExrImage, c: &str) -> f64 {
 /// chains do; b comes from MMLT's own BPT passes (keyed apart from the reference's seed). With b
 /// from the bootstrap's single-strategy samples, seeds 1–6 were off by −1.7…+2.1% at 1024
 /// mutations/px; one mutation per pixel suffices here because the chains cannot move the mean.
+/// Their colour they do move: at one mutation per pixel (a few thousand splats) one seed's
+/// channel means spread by about ±1% around their luminance's (R of seed 6 at −2.0% with the
+/// ziggurat's steps, seed 8 at 2.0–2.4% with Box–Muller's or the ziggurat's), so the colour is
+/// checked on the six seeds' mean, within the same 2%.
 #[test]
 fn caustic_image_mean_is_b_and_within_2_percent_at_every_seed() {
     let dir = TempDir::new("mmlt-seeds");
     let (_, indirect) = reference(CAUSTIC);
     let ind = ExrImage::read(&indirect).unwrap();
-    let mut worst = 0.0f64;
+    let (mut worst, mut colour) = (0.0f64, [0.0f64; 3]);
     for seed in 1..=6 {
         let seed = seed.to_string();
         let out = dir.join(&format!("s{seed}.exr"));
@@ -170,23 +197,33 @@ fn caustic_image_mean_is_b_and_within_2_percent_at_every_seed() {
                 &seed,
             ],
         );
-        let y: f64 = ["R", "G", "B"]
-            .iter()
-            .zip([0.2126, 0.7152, 0.0722])
-            .map(|(c, w)| w * channel_mean(&img, c))
-            .sum();
+        let y = luminance_mean(&img);
         let b = img.float_attr("mixmc.b").unwrap();
         assert!(
             (y / b - 1.0).abs() < 1e-4,
             "seed {seed}: mean Y {y} vs b {b}"
         );
-        for c in ["R", "G", "B"] {
-            let rel = channel_mean(&img, c) / channel_mean(&ind, c) - 1.0;
-            worst = worst.max(rel.abs());
-            assert!(rel.abs() < 0.02, "seed {seed}, {c}: mean off by {rel}");
+        let rel = y / luminance_mean(&ind) - 1.0;
+        worst = worst.max(rel.abs());
+        assert!(rel.abs() < 0.02, "seed {seed}: mean luminance off by {rel}");
+        for (k, c) in ["R", "G", "B"].iter().enumerate() {
+            colour[k] += channel_mean(&img, c) / 6.0;
         }
     }
-    eprintln!("worst channel mean over seeds 1-6: {worst}");
+    eprintln!("worst mean luminance over seeds 1-6: {worst}");
+    for (k, c) in ["R", "G", "B"].iter().enumerate() {
+        let rel = colour[k] / channel_mean(&ind, c) - 1.0;
+        assert!(rel.abs() < 0.02, "{c}: mean of seeds 1-6 off by {rel}");
+    }
+}
+
+/// Rec. 709 luminance of the image's mean.
+fn luminance_mean(img: &ExrImage) -> f64 {
+    ["R", "G", "B"]
+        .iter()
+        .zip([0.2126, 0.7152, 0.0722])
+        .map(|(c, w)| w * channel_mean(img, c))
+        .sum()
 }
 
 #[test]

@@ -9,6 +9,7 @@ and, as the 'final', seeds 3..6 at the long setting. Compare:
 and then the true MSE at the long setting vs each estimate scaled by time ratio.
 """
 import sys, subprocess, json, numpy as np, OpenImageIO as oiio, os
+from linearise import box, slope
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(ROOT, "target/release")
 def read(p):
@@ -18,12 +19,7 @@ def read(p):
     rgb = np.stack([px[..., names.index(c)] for c in "RGB"], -1)
     return rgb.astype(np.float64), attrs
 def ldr(x): return 255 * np.clip(np.nan_to_num(x), 0, 1) ** (1 / 2.2)
-def smooth(x):
-    p = np.pad(x, ((1, 1), (1, 1), (0, 0)), mode="edge")
-    return sum(p[dy:dy + x.shape[0], dx:dx + x.shape[1]] for dy in range(3) for dx in range(3)) / 9
-def slope(l):
-    s = 255 / 2.2 * np.maximum(l, 1 / 512) ** (1 / 2.2 - 1)
-    return np.where(l >= 1, 0, s)
+def smooth(x): return box(x, 3)
 def run(cmd):
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 scene, kind, short, long_ = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
@@ -51,13 +47,9 @@ ratio = t_short / t_long
 print(json.dumps(dict(scene=scene, kind=kind, t_short=round(t_short, 2), t_long=round(t_long, 2),
     true_short=round(true_short, 2), lin=round(lin, 2), emp=round(emp, 2),
     true_long=round(true_long, 2), lin_pred=round(lin * ratio, 2), emp_pred=round(emp * ratio, 2))))
-def boxk(x, k):
-    r = k // 2
-    p = np.pad(x, ((r, r), (r, r), (0, 0)), mode="edge")
-    return sum(p[dy:dy + x.shape[0], dx:dx + x.shape[1]] for dy in range(k) for dx in range(k)) / (k * k)
 lev = smooth(avg)
 for k in (1, 3, 5, 9):
-    var = boxk((a - b) ** 2 / 4, k) if k > 1 else (a - b) ** 2 / 4  # variance of the 2-half average
+    var = box((a - b) ** 2 / 4, k) if k > 1 else (a - b) ** 2 / 4  # variance of the 2-half average
     cap = ldr(lev) ** 2
     for tag, t in (("short", t_short), ("long", t_long)):
         e = np.minimum(slope(lev) ** 2 * var * (t_short / t), np.maximum(cap, 0))

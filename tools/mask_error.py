@@ -10,14 +10,15 @@ render) is scored by them, one without (an MMLT `mcmc.exr`, which holds alpha*I 
 its `R,G,B`. The error is (slope * (x - ref))^2, mean over channels, summed over the complex
 pixels and divided by all pixels (the image-mean share the job's rates use), where slope is the
 derivative of the paper's LDR curve 255*clamp(x,0,1)^(1/2.2) at the reference's 3x3-smoothed
-beauty (0 above 1, the level floored at 1/512), as in `src/mix/estimate.rs`. Also printed: the
+beauty (`linearise.py`, as in `src/mix/estimate.rs`). Also printed: the
 relative difference of the image's and the reference's sums over the mask (a bias shows there).
 """
 import sys
 
 import numpy as np
 import OpenImageIO as oiio
-from numpy.lib.stride_tricks import sliding_window_view
+
+from linearise import box, slope
 
 INDIRECT = ["indirect.R", "indirect.G", "indirect.B"]
 RGB = ["R", "G", "B"]
@@ -41,15 +42,13 @@ def main(argv):
     mask, ref, images = argv[0], argv[1], argv[2:]
     inside = channels(mask, ["alpha"])[..., 0] > 0.5
     ref_i, ref_rgb = channels(ref, INDIRECT), channels(ref, RGB)
-    pad = np.pad(ref_rgb, ((1, 1), (1, 1), (0, 0)), mode="edge")
-    level = sliding_window_view(pad, (3, 3), axis=(0, 1)).mean(axis=(-1, -2))
-    slope = np.where(level >= 1, 0.0, 255 / 2.2 * np.maximum(level, 1 / 512) ** (1 / 2.2 - 1))
+    k = slope(box(ref_rgb, 3))
     for path in images:
         names = INDIRECT if "indirect.R" in oiio.ImageBuf(path).spec().channelnames else RGB
         img = channels(path, names)
         if img.shape != ref_i.shape:
             sys.exit(f"mask_error.py: {path}: size differs from the reference's")
-        err = ((slope * (img - ref_i)) ** 2)[inside].sum() / 3 / inside.size
+        err = ((k * (img - ref_i)) ** 2)[inside].sum() / 3 / inside.size
         bias = (img - ref_i)[inside].sum() / max(ref_i[inside].sum(), 1e-12)
         print(f"{path}: in-mask error {err:.3f}, sum {bias:+.4f} of the reference's")
 

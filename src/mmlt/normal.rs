@@ -83,8 +83,12 @@ mod tests {
     #[test]
     fn the_layers_close_at_zero_with_equal_areas() {
         let t = &*TABLE;
-        // The recurrence ends where the curve is 1: the top layer's left edge is 0.
-        assert_eq!(t.x[LAYERS], 0.0);
+        // Layer 0, the box under f(R) and the tail beyond it (√(2π)·Q(R), Q(R) = 2.8805e-4 for
+        // the normal distribution), holds AREA: R and AREA belong together.
+        let base = R * curve(R) + (2.0 * std::f64::consts::PI).sqrt() * 2.8805e-4;
+        assert!((base / AREA - 1.0).abs() < 1e-3, "{base}");
+        // The recurrence ends where the curve is 1: the top layer, out to x[LAYERS − 1] from
+        // 0, holds AREA too.
         assert!(
             t.x[LAYERS - 1] > 0.0 && t.x[LAYERS - 1] < 0.3,
             "{}",

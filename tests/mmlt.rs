@@ -529,3 +529,54 @@ fn a_continued_run_is_one_run_and_its_halves_make_the_whole() {
         mean(&once.rgb)
     );
 }
+
+/// The main job's MMLT splats plainly in its pilot, before its OMC passes estimate b_d, and
+/// with Kelemen's weights after: the plain rounds must enter the image as they would have
+/// alone, and the rounds after must estimate the same light (the chains are the same: the
+/// weights do not move them).
+#[test]
+fn kelemens_weights_from_when_b_is_set_keep_the_plain_rounds_and_the_light() {
+    use mixmc::mmlt::{MmltRun, MmltSettings};
+    use mixmc::render::Budget;
+    let scene = mixmc::scene::Scene::load(Path::new(&fixture(CAUSTIC))).unwrap();
+    let settings = |kelemen_mis: bool, b_spp: u64| MmltSettings {
+        min_depth: 2,
+        max_depth: scene.max_depth,
+        seed: 5,
+        budget: Budget::Passes(16),
+        chains: 64,
+        bootstrap: 4000,
+        b_spp,
+        large_step: mixmc::mmlt::DEFAULT_LARGE_STEP,
+        sigma: mixmc::mmlt::DEFAULT_SIGMA,
+        kelemen_mis,
+        quiet: true,
+    };
+    let b = mixmc::mmlt::render(&scene, None, &settings(false, 8)).b_depth;
+    let (mut plain, mut kelemen) = (
+        MmltRun::start(&scene, None, &settings(false, 0), 1),
+        MmltRun::start(&scene, None, &settings(true, 0), 1),
+    );
+    for run in [&mut plain, &mut kelemen] {
+        run.run(Budget::Passes(4));
+        run.set_normalisation(b.clone(), "test");
+    }
+    let (p, k) = (plain.result().rgb, kelemen.result().rgb);
+    let worst = p
+        .iter()
+        .zip(&k)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs() / x[c].abs().max(1e-6)))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-5, "the plain rounds changed by {worst}");
+
+    for run in [&mut plain, &mut kelemen] {
+        run.run(Budget::Passes(16));
+    }
+    let n = p.len() as f64;
+    let mean = |img: &[[f32; 3]]| img.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let (mp, mk) = (mean(&plain.result().rgb), mean(&kelemen.result().rgb));
+    assert!(
+        (mk / mp - 1.0).abs() < 0.005,
+        "Kelemen {mk} against plain {mp}"
+    );
+}

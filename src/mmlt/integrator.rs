@@ -149,6 +149,8 @@ pub struct MmltSettings {
     pub large_step: f32,
     pub sigma: f32,
     /// Kelemen et al.'s MIS of large steps as an independent strategy (the paper's baseline).
+    /// Its weights hold b_d, so with `b_spp` = 0 the chains splat plainly until the caller sets
+    /// b_d ([`MmltRun::set_normalisation`]) and take Kelemen's weights from then on.
     pub kelemen_mis: bool,
     pub quiet: bool,
 }
@@ -282,12 +284,13 @@ struct Chain {
 
 impl Chain {
     /// Run `quota` mutations into `self.splats`, sorted into bands of `band_len` pixels.
+    /// `mis`: Kelemen's weights, with this depth's `b_d`.
     fn run(
         &mut self,
         scene: &Scene,
         alpha: Option<&[f32]>,
         s: &MmltSettings,
-        b_d: f64,
+        (b_d, mis): (f64, bool),
         band_len: usize,
     ) {
         let mut scratch = Scratch::new(self.depth);
@@ -312,7 +315,7 @@ impl Chain {
             // beside the chain's Y/b_d (b_d: this depth's normalisation, the chain's space), so
             // each splat is f / (Y/b_d + p_large) per unit of weight and the proposal of a large
             // step gets one extra unit: per mutation the expected splat is ∫f either way.
-            let (w_prop, w_cur) = if s.kelemen_mis {
+            let (w_prop, w_cur) = if mis {
                 (
                     (a + large as u8 as f32) / (proposal.y * inv_b + p_large),
                     (1.0 - a) / (cur.y * inv_b + p_large),
@@ -360,6 +363,8 @@ pub struct MmltRun<'a> {
     alpha: Option<&'a [f32]>,
     s: MmltSettings,
     b_depth: Vec<f64>,
+    /// Whether the chains splat with Kelemen's weights: asked for, and b_d known.
+    mis: bool,
     b_spp: u64,
     b_source: String,
     b_seconds: f64,
@@ -425,6 +430,7 @@ impl<'a> MmltRun<'a> {
             alpha,
             s: s.clone(),
             b_depth,
+            mis: s.kelemen_mis && s.b_spp > 0,
             b_spp,
             b_source: b_source.into(),
             b_seconds,
@@ -450,11 +456,20 @@ impl<'a> MmltRun<'a> {
     }
 
     /// Each rendered depth's b_d (from `min_depth` up), estimated by the caller, and what from.
-    /// The chains do not depend on it (Kelemen's MIS aside, which needs b_d before they run):
-    /// it only scales the image.
+    /// The chains' moves do not depend on it: without Kelemen's MIS it only scales the image.
+    /// With it, the rounds from now on weigh their splats with it; the plain rounds before (the
+    /// main job's pilot, rendered before its OMC passes estimated b_d) are brought to
+    /// Kelemen's units by scaling their sums with b_d, in which each round's splats are an
+    /// unbiased image of `mutations per pixel × (α·)I` either way.
     pub fn set_normalisation(&mut self, b_depth: Vec<f64>, source: &str) {
         assert_eq!(b_depth.len(), self.nd, "one b_d per rendered depth");
-        assert!(!self.s.kelemen_mis, "Kelemen's MIS uses b_d in the chains");
+        if self.s.kelemen_mis && !self.mis {
+            for (k, sum) in self.sums.iter_mut().enumerate() {
+                let b = b_depth[k % self.nd];
+                sum.iter_mut().for_each(|v| *v = v.map(|x| x * b));
+            }
+            self.mis = true;
+        }
         self.b_depth = b_depth;
         self.b_source = source.into();
     }
@@ -511,10 +526,10 @@ impl<'a> MmltRun<'a> {
                     break;
                 }
             }
-            let b_depth = &self.b_depth;
+            let (b_depth, mis) = (&self.b_depth, self.mis);
             chains
                 .par_iter_mut()
-                .for_each(|c| c.run(scene, alpha, s, b_depth[c.slot], band_len));
+                .for_each(|c| c.run(scene, alpha, s, (b_depth[c.slot], mis), band_len));
             // Each band of each depth's sums takes its splats in chain order, bands in parallel:
             // every pixel adds its splats in the same order whatever the thread count.
             let chains = &*chains;
@@ -553,7 +568,7 @@ impl<'a> MmltRun<'a> {
 
     /// The image of the sums at `group`'s share (`None`: both groups), depth by depth. Splats of
     /// depth d are worth b_d / (their mutations per pixel); with Kelemen's weights, which already
-    /// hold b_d, 1 / (their mutations per pixel). A depth whose chains all fell into one group
+    /// hold b_d (and plain rounds before them scaled by it), 1 / (their mutations per pixel). A depth whose chains all fell into one group
     /// enters both halves whole, so that the halves differ only where they are independent.
     fn image(&self, group: Option<usize>) -> Vec<[f32; 3]> {
         let pixels = self.sums.first().map_or(0, Vec::len);
@@ -568,7 +583,7 @@ impl<'a> MmltRun<'a> {
                 };
                 let m: u64 = ks.iter().map(|&k| self.per_depth[k]).sum::<u64>() * self.rounds;
                 let mpp_d = m as f64 / pixels as f64;
-                let scale = match (m, self.s.kelemen_mis) {
+                let scale = match (m, self.mis) {
                     (0, _) => 0.0,
                     (_, true) => 1.0 / mpp_d,
                     (_, false) => self.b_depth[d] / mpp_d,

@@ -568,8 +568,9 @@ impl<'a> MmltRun<'a> {
 
     /// The image of the sums at `group`'s share (`None`: both groups), depth by depth. Splats of
     /// depth d are worth b_d / (their mutations per pixel); with Kelemen's weights, which already
-    /// hold b_d (and plain rounds before them scaled by it), 1 / (their mutations per pixel). A depth whose chains all fell into one group
-    /// enters both halves whole, so that the halves differ only where they are independent.
+    /// hold b_d (and plain rounds before them were scaled by it), 1 / (their mutations per
+    /// pixel). A depth whose chains all fell into one group enters both halves whole, so that
+    /// the halves differ only where they are independent.
     fn image(&self, group: Option<usize>) -> Vec<[f32; 3]> {
         let pixels = self.sums.first().map_or(0, Vec::len);
         let (nd, groups) = (self.nd, self.groups);

@@ -145,6 +145,9 @@ fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmaske
     );
     let mcmc = read(&keep.join("mcmc.exr"));
     assert_eq!(mcmc.float_attr("mixmc.min_depth"), Some(0.0));
+    // The measured job's MMLT weighs its large steps with Kelemen's MIS; the paper's forms not.
+    let kelemen = |img: &ExrImage| img.text_attr("mixmc.kelemen_mis");
+    assert_eq!(kelemen(&mcmc).as_deref(), Some("true"));
     assert_eq!(differ(&rgb(&fin), &rgb(&mcmc)), 0);
 
     // A fixed split keeps the paper's form: D_omc + I_mcmc, MMLT on the indirect light.
@@ -159,6 +162,7 @@ fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmaske
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
     assert_eq!(mcmc.float_attr("mixmc.min_depth"), Some(2.0));
+    assert_eq!(kelemen(&mcmc).as_deref(), Some("false"));
     util::assert_direct_plus_mcmc(&omc, &mcmc, &fin);
 }
 

@@ -466,26 +466,37 @@ fn time_budget_and_sigint_give_scaled_images() {
     );
 }
 
+/// Settings of a small MMLT run of indirect light on a tiny scene, driven through `MmltRun` (8
+/// mutations per pixel unless the test runs it further).
+fn small_run(
+    scene: &mixmc::scene::Scene,
+    seed: u64,
+    b_spp: u64,
+    kelemen_mis: bool,
+) -> mixmc::mmlt::MmltSettings {
+    mixmc::mmlt::MmltSettings {
+        min_depth: 2,
+        max_depth: scene.max_depth,
+        seed,
+        budget: mixmc::render::Budget::Passes(8),
+        chains: 64,
+        bootstrap: 4000,
+        b_spp,
+        large_step: mixmc::mmlt::DEFAULT_LARGE_STEP,
+        sigma: mixmc::mmlt::DEFAULT_SIGMA,
+        kelemen_mis,
+        quiet: true,
+    }
+}
+
 /// The main job stops MMLT after a pilot and continues it: that must be the same render as one
 /// run, and its two halves must be independent estimates that together make the whole.
 #[test]
 fn a_continued_run_is_one_run_and_its_halves_make_the_whole() {
-    use mixmc::mmlt::{MmltRun, MmltSettings};
+    use mixmc::mmlt::MmltRun;
     use mixmc::render::Budget;
     let scene = mixmc::scene::Scene::load(Path::new(&fixture(CAUSTIC))).unwrap();
-    let s = MmltSettings {
-        min_depth: 2,
-        max_depth: scene.max_depth,
-        seed: 3,
-        budget: Budget::Passes(8),
-        chains: 64,
-        bootstrap: 4000,
-        b_spp: 2,
-        large_step: mixmc::mmlt::DEFAULT_LARGE_STEP,
-        sigma: mixmc::mmlt::DEFAULT_SIGMA,
-        kelemen_mis: false,
-        quiet: true,
-    };
+    let s = small_run(&scene, 3, 2, false);
     let once = mixmc::mmlt::render(&scene, None, &s);
     let mut run = MmltRun::start(&scene, None, &s, 1);
     run.run(Budget::Passes(3));
@@ -536,22 +547,10 @@ fn a_continued_run_is_one_run_and_its_halves_make_the_whole() {
 /// weights do not move them).
 #[test]
 fn kelemens_weights_from_when_b_is_set_keep_the_plain_rounds_and_the_light() {
-    use mixmc::mmlt::{MmltRun, MmltSettings};
+    use mixmc::mmlt::MmltRun;
     use mixmc::render::Budget;
     let scene = mixmc::scene::Scene::load(Path::new(&fixture(CAUSTIC))).unwrap();
-    let settings = |kelemen_mis: bool, b_spp: u64| MmltSettings {
-        min_depth: 2,
-        max_depth: scene.max_depth,
-        seed: 5,
-        budget: Budget::Passes(16),
-        chains: 64,
-        bootstrap: 4000,
-        b_spp,
-        large_step: mixmc::mmlt::DEFAULT_LARGE_STEP,
-        sigma: mixmc::mmlt::DEFAULT_SIGMA,
-        kelemen_mis,
-        quiet: true,
-    };
+    let settings = |kelemen_mis: bool, b_spp: u64| small_run(&scene, 5, b_spp, kelemen_mis);
     let b = mixmc::mmlt::render(&scene, None, &settings(false, 8)).b_depth;
     let (mut plain, mut kelemen) = (
         MmltRun::start(&scene, None, &settings(false, 0), 1),

@@ -486,26 +486,24 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         }
         None => None,
     };
-    let b = b.and_then(|(sums, passes, source)| {
-        normalisation(&sums, passes, mmlt_settings.min_depth, job.w * job.h).map(|b| (b, source))
-    });
     let mut partial = omc_render.partial;
-    if matches!(choice, Choice::Mix { .. } | Choice::McmcOnly) && !partial {
-        let run = mmlt.get_or_insert_with(|| {
+    let goes_on = matches!(choice, Choice::Mix { .. } | Choice::McmcOnly) && !partial;
+    if goes_on {
+        mmlt.get_or_insert_with(|| {
             let settings = MmltSettings {
                 budget: Budget::Seconds(job.left().max(1e-3)),
                 ..mmlt_settings.clone()
             };
             MmltRun::start(scene, mmlt_alpha, &settings, 1)
         });
-        if let Some((b, source)) = &b {
-            run.set_normalisation(b.clone(), source);
-        }
+    }
+    if let (Some(run), Some((sums, passes, source))) = (&mut mmlt, b)
+        && let Some(b) = normalisation(&sums, passes, mmlt_settings.min_depth, job.w * job.h)
+    {
+        run.set_normalisation(b, &source);
+    }
+    if let (Some(run), true) = (&mut mmlt, goes_on) {
         run.run(Budget::Seconds(run.seconds() + job.left().max(0.0)));
-    } else if let (Some(run), Some((b, source))) = (&mut mmlt, &b) {
-        // MMLT that does not go on (OMC alone after its pilot, or an interrupted job): b_d for
-        // its image and header.
-        run.set_normalisation(b.clone(), source);
     }
 
     // 5. Inside the mask OMC's and MMLT's estimates of the indirect light are weighed by their

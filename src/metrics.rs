@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::film::srgb8;
+use rayon::prelude::*;
 
 /// ε in relMSE's denominator `b² + ε`: keeps black reference pixels from dominating, at the scale
 /// of a dim (0.1) linear value.
@@ -15,6 +16,18 @@ pub fn flip_pixels_per_degree() -> f32 {
     nv_flip::pixels_per_degree(0.7, 3840.0, 0.7)
 }
 
+/// The smallest level [`gamma_slope`] is taken at: the slope of `x^(1/2.2)` grows without bound
+/// at black, where a render's noise is spread over an LDR step or two, not multiplied by ∞.
+pub const LEVEL_FLOOR: f32 = 1.0 / 512.0;
+
+/// Slope of the LDR curve's gamma part, `255·x^(1/2.2)`, at linear value `x` (at least
+/// [`LEVEL_FLOOR`]), without the clamp at 1: how much a small linear error at that level moves
+/// the paper's LDR value below the clamp.
+pub fn gamma_slope(x: f32) -> f64 {
+    let x = x.max(LEVEL_FLOOR) as f64;
+    255.0 / 2.2 * x.powf(1.0 / 2.2 - 1.0)
+}
+
 /// The paper's LDR value: `255 · clamp(x, 0, 1)^(1/2.2)`; NaN counts as black.
 pub fn ldr(x: f32) -> f64 {
     let x = if x.is_nan() {
@@ -23,6 +36,29 @@ pub fn ldr(x: f32) -> f64 {
         x.clamp(0.0, 1.0) as f64
     };
     255.0 * x.powf(1.0 / 2.2)
+}
+
+/// A 3×3 box blur (borders clamped): the level an error is linearised at, steadier than one
+/// pixel's noisy mean, whose spikes would otherwise hide their own variance under the clamp.
+pub fn smooth(rgb: &[[f32; 3]], width: usize, height: usize) -> Vec<[f32; 3]> {
+    (0..width * height)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % width, p / width);
+            let mut acc = [0.0f32; 3];
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let xx = (x as i64 + dx).clamp(0, width as i64 - 1) as usize;
+                    let yy = (y as i64 + dy).clamp(0, height as i64 - 1) as usize;
+                    let v = rgb[yy * width + xx];
+                    for c in 0..3 {
+                        acc[c] += if v[c].is_finite() { v[c] } else { 0.0 };
+                    }
+                }
+            }
+            acc.map(|v| v / 9.0)
+        })
+        .collect()
 }
 
 /// Which metric decides `--fail` and the heat map.
@@ -220,5 +256,20 @@ mod tests {
         assert!(r.cut(&img, 2, 6).is_err());
         assert!("1,2,3".parse::<Region>().is_err());
         assert!("0,0,0,4".parse::<Region>().is_err());
+    }
+
+    #[test]
+    fn smoothing_keeps_a_flat_image_and_spreads_a_spike() {
+        let (w, h) = (5, 4);
+        let flat = vec![[0.3f32; 3]; w * h];
+        for (s, f) in smooth(&flat, w, h).iter().zip(&flat) {
+            assert!((s[0] - f[0]).abs() < 1e-6);
+        }
+        let mut spike = vec![[0.0f32; 3]; w * h];
+        spike[2 * w + 2] = [9.0; 3];
+        let s = smooth(&spike, w, h);
+        assert!((s[2 * w + 2][0] - 1.0).abs() < 1e-6);
+        assert!((s[w + 1][1] - 1.0).abs() < 1e-6);
+        assert_eq!(s[0][0], 0.0);
     }
 }

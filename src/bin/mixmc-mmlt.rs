@@ -6,8 +6,8 @@ use mixmc::Error;
 use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note, render_exit};
 use mixmc::film::write_beauty_png;
 use mixmc::mmlt::{
-    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltSettings, check_memory, mcmc_image,
-    render,
+    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Importance, Mask, MmltSettings, check_memory,
+    mcmc_image, render,
 };
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
@@ -29,6 +29,11 @@ struct Args {
     /// Mask EXR with an `alpha` channel of the film's size: the target becomes Y(α·C).
     #[arg(long)]
     mask: Option<PathBuf>,
+    /// An EXR render of the scene (R,G,B at any noise level, e.g. a short `mixmc-omc` run): the
+    /// chains' effort is weighed by the LDR curve's slope at its smoothed level, which puts it
+    /// where the paper's LDR error is most sensitive (target g·Y(α·C); unbiased for any g).
+    #[arg(long)]
+    importance: Option<PathBuf>,
     /// Mutations per pixel [default: 64 unless --time is given]; --spp means the same.
     #[arg(long, conflicts_with_all = ["spp", "time"])]
     mutations_per_pixel: Option<u64>,
@@ -110,6 +115,10 @@ fn main() -> ExitCode {
                 );
             }
         }
+        let importance = match &args.importance {
+            Some(p) => Some(Importance::load(p, w, h)?),
+            None => None,
+        };
         let max_depth = args.render.max_depth(scene.max_depth)?;
         let min_depth = if args.include_direct { 0 } else { 2 };
         if max_depth < min_depth {
@@ -132,7 +141,7 @@ fn main() -> ExitCode {
         };
         check_memory(w, h, &settings, 1).map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();
-        let r = render(&scene, mask.as_ref(), &settings);
+        let r = render(&scene, mask.as_ref(), importance.as_ref(), &settings);
         let mut img = mcmc_image(&scene, mask.as_ref(), &settings, &r);
         img.set_text(COMMAND_ATTR, command_line());
         img.write(&args.output, false)?;

@@ -12,20 +12,12 @@
 
 use crate::film::Film;
 use crate::math::Rgb;
-use crate::metrics::ldr;
+use crate::metrics::{gamma_slope, ldr};
 use rayon::prelude::*;
-
-/// The smallest level the LDR slope is taken at: the slope of `x^(1/2.2)` grows without bound
-/// at black, where a render's noise is spread over an LDR step or two, not multiplied by ∞.
-const LEVEL_FLOOR: f32 = 1.0 / 512.0;
 
 /// Slope of the paper's LDR curve at linear value `x` (0 where the clamp holds it at 255).
 fn ldr_slope(x: f32) -> f64 {
-    if x >= 1.0 {
-        return 0.0;
-    }
-    let x = x.max(LEVEL_FLOOR) as f64;
-    255.0 / 2.2 * x.powf(1.0 / 2.2 - 1.0)
+    if x >= 1.0 { 0.0 } else { gamma_slope(x) }
 }
 
 /// Two independent estimates of the same image, as means, with their sample weights: the whole
@@ -217,29 +209,6 @@ fn block_excess(
                 let excess = ldr_slope((acc[4][c] / n) as f32).powi(2) * (d * d - noise) * n;
                 (d, excess)
             })
-        })
-        .collect()
-}
-
-/// A 3×3 box blur (borders clamped): the level an error is linearised at, steadier than one
-/// pixel's noisy mean, whose spikes would otherwise hide their own variance under the clamp.
-pub fn smooth(rgb: &[[f32; 3]], width: usize, height: usize) -> Vec<[f32; 3]> {
-    (0..width * height)
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = (p % width, p / width);
-            let mut acc = [0.0f32; 3];
-            for dy in -1i64..=1 {
-                for dx in -1i64..=1 {
-                    let xx = (x as i64 + dx).clamp(0, width as i64 - 1) as usize;
-                    let yy = (y as i64 + dy).clamp(0, height as i64 - 1) as usize;
-                    let v = rgb[yy * width + xx];
-                    for c in 0..3 {
-                        acc[c] += if v[c].is_finite() { v[c] } else { 0.0 };
-                    }
-                }
-            }
-            acc.map(|v| v / 9.0)
         })
         .collect()
 }
@@ -501,21 +470,6 @@ mod tests {
             let numeric = (ldr(x as f64 + h) - ldr(x as f64 - h)) / (2.0 * h);
             assert!((ldr_slope(x) / numeric - 1.0).abs() < 1e-4, "{x}");
         }
-        assert_eq!(ldr_slope(0.0), ldr_slope(LEVEL_FLOOR));
-    }
-
-    #[test]
-    fn smoothing_keeps_a_flat_image_and_spreads_a_spike() {
-        let (w, h) = (5, 4);
-        let flat = vec![[0.3f32; 3]; w * h];
-        for (s, f) in smooth(&flat, w, h).iter().zip(&flat) {
-            assert!((s[0] - f[0]).abs() < 1e-6);
-        }
-        let mut spike = vec![[0.0f32; 3]; w * h];
-        spike[2 * w + 2] = [9.0; 3];
-        let s = smooth(&spike, w, h);
-        assert!((s[2 * w + 2][0] - 1.0).abs() < 1e-6);
-        assert!((s[w + 1][1] - 1.0).abs() < 1e-6);
-        assert_eq!(s[0][0], 0.0);
+        assert_eq!(ldr_slope(0.0), ldr_slope(crate::metrics::LEVEL_FLOOR));
     }
 }

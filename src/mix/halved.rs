@@ -4,7 +4,7 @@
 
 use super::Job;
 use super::estimate::{
-    Halves, MixHalf, add, film_means, smooth, total_error, unseen_error, weight_in_mask,
+    Halves, MixHalf, add, film_means, total_error, unseen_error, weight_in_mask,
 };
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
@@ -215,7 +215,7 @@ impl Halved {
     pub(super) fn level(&self) -> Vec<[f32; 3]> {
         let whole = self.whole();
         let (d, i) = film_means(&whole.film, whole.passes);
-        smooth(&add(&d, &i), whole.film.width, whole.film.height)
+        crate::metrics::smooth(&add(&d, &i), whole.film.width, whole.film.height)
     }
 }
 

@@ -7,7 +7,7 @@ use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
 use super::{Job, MCMC_PILOT, serves_b};
 use crate::integrators::Method;
-use crate::mmlt::{MmltRun, MmltSettings};
+use crate::mmlt::{MmltRun, MmltSettings, Target};
 use crate::render::Budget;
 use crate::rng::mix64;
 use std::time::Instant;
@@ -226,7 +226,11 @@ pub(super) fn mcmc<'a>(
         budget: Budget::Seconds(0.5 * job.left().max(1e-3)),
         ..settings.clone()
     };
-    let mut run = MmltRun::start(job.scene, Some(alpha), &settings, 2);
+    let target = Target {
+        alpha: Some(alpha),
+        importance: None,
+    };
+    let mut run = MmltRun::start(job.scene, target, &settings, 2);
     run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
     // Inside the mask, MMLT's whole error as OMC's render shows it, where that is more than its
     // halves show: the decision at 1/t from the halves alone mixed on cornell-torus at 120 s,

@@ -5,13 +5,16 @@
 //! the strategy s, t = depth + 2 − s, and the contribution is BPT's MIS-weighted value of that
 //! strategy times the number of strategies (the inverse of the choice's probability). The scalar
 //! target is `Y(α(pixel)·C)`: with a mask the chain spends its effort ∝ α·I and the image, splatted
-//! with `α·C`, estimates α·I (DESIGN §1). A chain keeps the depth of the bootstrap sample it starts
-//! from, so each depth has its own normalisation `b_d`; splats are scaled per depth by the
-//! mutations actually spent on that depth, which makes the image independent of how many chains a
-//! depth received (in expectation the same as pbrt's global `b / mutations per pixel`).
+//! with `α·C`, estimates α·I (DESIGN §1). An importance g (`importance`) makes it
+//! `g(pixel)·Y(α·C)`, which moves the effort, not the estimate: splats are `C/(g·Y)` and b_d
+//! integrates g·Y. A chain keeps the depth of the bootstrap sample it starts from, so each depth
+//! has its own normalisation `b_d`; splats are scaled per depth by the mutations actually spent
+//! on that depth, which makes the image independent of how many chains a depth received (in
+//! expectation the same as pbrt's global `b / mutations per pixel`).
 //!
-//! Every mutation adds exactly one unit of luminance to the image (expected-value splatting of
-//! `C / Y(C)`), so the image's mean luminance *is* Σ b_d: its error is b's error alone. b_d is
+//! Every mutation adds exactly one unit of g-weighted luminance to the image (expected-value
+//! splatting of `C / (g·Y(C))`), so the image's mean of g·Y *is* Σ b_d: its error is b's error
+//! alone. b_d is
 //! therefore estimated by BPT passes of its own (`b_spp` per pixel, all strategies of a depth
 //! from shared sub-paths), not from the bootstrap's single-strategy samples: on the caustic scene
 //! 32 BPT passes (0.3 s) estimate b with a 0.6% spread over seeds where 700 000 bootstrap samples
@@ -20,6 +23,7 @@
 //! starting states. Being independent of the chains, this b_d also keeps the product b_d × (the
 //! chains' histogram) unbiased.
 
+use super::importance::Importance;
 use super::sampler::{CAMERA_STREAM, CONNECTION_STREAM, LIGHT_STREAM, MltSampler};
 use crate::exrio::ExrImage;
 use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
@@ -177,6 +181,8 @@ pub struct MmltResult {
     pub b_spp: u64,
     /// Where b came from: `bpt` (MMLT's own passes), `bootstrap`, or what the caller said.
     pub b_source: String,
+    /// What the chains' importance was made from (`none`: the paper's target).
+    pub importance: String,
     /// Seconds of the start-up's phases: the estimate of b and the bootstrap.
     pub b_seconds: f64,
     pub bootstrap_seconds: f64,
@@ -192,6 +198,24 @@ struct PathSample {
     c: Rgb,
     y: f32,
     pixel: usize,
+}
+
+/// What an MMLT render estimates and where its chains look: the image α·I (α: the mask's
+/// weight, 1 without one) with the target `g·Y(α·C)` (g: the [`Importance`], 1 without one).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Target<'a> {
+    pub alpha: Option<&'a [f32]>,
+    pub importance: Option<&'a Importance>,
+}
+
+impl Target<'_> {
+    fn alpha(&self, pixel: usize) -> f32 {
+        self.alpha.map_or(1.0, |a| a[pixel])
+    }
+
+    fn importance(&self, pixel: usize) -> f32 {
+        self.importance.map_or(1.0, |i| i.g[pixel])
+    }
 }
 
 /// Scratch vertices reused across a chain's mutations.
@@ -214,7 +238,7 @@ fn evaluate(
     scene: &Scene,
     sampler: &mut MltSampler,
     depth: u32,
-    alpha: Option<&[f32]>,
+    target: Target,
     scratch: &mut Scratch,
 ) -> PathSample {
     let (w, h) = (scene.width() as usize, scene.height() as usize);
@@ -254,9 +278,8 @@ fn evaluate(
     if let Some((rx, ry)) = c.raster {
         out.pixel = pixel_of(rx, ry);
     }
-    let a = alpha.map_or(1.0, |a| a[out.pixel]);
-    out.c = c.value * (n as f32 * a);
-    let y = luminance(out.c);
+    out.c = c.value * (n as f32 * target.alpha(out.pixel));
+    let y = luminance(out.c) * target.importance(out.pixel);
     if y.is_finite() && y > 0.0 {
         out.y = y;
     } else {
@@ -288,7 +311,7 @@ impl Chain {
     fn run(
         &mut self,
         scene: &Scene,
-        alpha: Option<&[f32]>,
+        target: Target,
         s: &MmltSettings,
         (b_d, mis): (f64, bool),
         band_len: usize,
@@ -303,7 +326,7 @@ impl Chain {
         for _ in 0..self.quota {
             self.sampler.start_iteration();
             let large = self.sampler.large_step();
-            let proposal = evaluate(scene, &mut self.sampler, self.depth, alpha, &mut scratch);
+            let proposal = evaluate(scene, &mut self.sampler, self.depth, target, &mut scratch);
             let cur = self.current;
             let a = if cur.y > 0.0 {
                 (proposal.y / cur.y).min(1.0)
@@ -347,9 +370,18 @@ impl Chain {
     }
 }
 
-/// Render (α·)I with MMLT.
-pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResult {
-    let mut run = MmltRun::start(scene, mask.map(|m| m.alpha.as_slice()), s, 1);
+/// Render (α·)I with MMLT, its chains' effort weighed by `importance` where one is given.
+pub fn render(
+    scene: &Scene,
+    mask: Option<&Mask>,
+    importance: Option<&Importance>,
+    s: &MmltSettings,
+) -> MmltResult {
+    let target = Target {
+        alpha: mask.map(|m| m.alpha.as_slice()),
+        importance,
+    };
+    let mut run = MmltRun::start(scene, target, s, 1);
     run.run(s.budget);
     run.result()
 }
@@ -360,7 +392,7 @@ pub fn render(scene: &Scene, mask: Option<&Mask>, s: &MmltSettings) -> MmltResul
 /// noise alone, which estimates the render's error without a reference.
 pub struct MmltRun<'a> {
     scene: &'a Scene,
-    alpha: Option<&'a [f32]>,
+    target: Target<'a>,
     s: MmltSettings,
     b_depth: Vec<f64>,
     /// Whether the chains splat with Kelemen's weights: asked for, and b_d known.
@@ -394,7 +426,7 @@ impl<'a> MmltRun<'a> {
     /// halves.
     pub fn start(
         scene: &'a Scene,
-        alpha: Option<&'a [f32]>,
+        target: Target<'a>,
         s: &MmltSettings,
         groups: usize,
     ) -> MmltRun<'a> {
@@ -403,9 +435,9 @@ impl<'a> MmltRun<'a> {
         let depths: Vec<u32> = (s.min_depth..=s.max_depth).collect();
         let nd = depths.len();
         let groups = groups.clamp(1, 2);
-        let (b_depth, b_spp) = normalisation(scene, alpha, s, &depths);
+        let (b_depth, b_spp) = normalisation(scene, target, s, &depths);
         let b_seconds = begin.elapsed().as_secs_f64();
-        let (weights, n_boot) = bootstrap(scene, alpha, s, &depths);
+        let (weights, n_boot) = bootstrap(scene, target, s, &depths);
         let bootstrap_seconds = begin.elapsed().as_secs_f64() - b_seconds;
         let (b_depth, b_source) = if s.b_spp == 0 {
             // Each bootstrap weight is a one-sample estimate of b_d (DESIGN §1).
@@ -416,7 +448,15 @@ impl<'a> MmltRun<'a> {
         } else {
             (b_depth, "bpt")
         };
-        let mut chains = start_chains(scene, alpha, s, (&depths, groups), &weights, n_boot, pixels);
+        let mut chains = start_chains(
+            scene,
+            target,
+            s,
+            (&depths, groups),
+            &weights,
+            n_boot,
+            pixels,
+        );
         let mut per_depth = vec![0u64; groups * nd];
         for c in &chains {
             per_depth[c.group * nd + c.slot] += c.quota;
@@ -427,7 +467,7 @@ impl<'a> MmltRun<'a> {
         }
         MmltRun {
             scene,
-            alpha,
+            target,
             s: s.clone(),
             b_depth,
             mis: s.kelemen_mis && s.b_spp > 0,
@@ -478,7 +518,7 @@ impl<'a> MmltRun<'a> {
     /// `Seconds(t)` of its own time (start-up included), or until the user interrupts.
     pub fn run(&mut self, budget: Budget) {
         let begin = Instant::now();
-        let (scene, alpha, nd) = (self.scene, self.alpha, self.nd);
+        let (scene, target, nd) = (self.scene, self.target, self.nd);
         let s = &self.s;
         let band_len = self.band_len;
         let chains = &mut self.chains;
@@ -529,7 +569,7 @@ impl<'a> MmltRun<'a> {
             let (b_depth, mis) = (&self.b_depth, self.mis);
             chains
                 .par_iter_mut()
-                .for_each(|c| c.run(scene, alpha, s, (b_depth[c.slot], mis), band_len));
+                .for_each(|c| c.run(scene, target, s, (b_depth[c.slot], mis), band_len));
             // Each band of each depth's sums takes its splats in chain order, bands in parallel:
             // every pixel adds its splats in the same order whatever the thread count.
             let chains = &*chains;
@@ -633,6 +673,10 @@ impl<'a> MmltRun<'a> {
             b_depth: self.b_depth.clone(),
             b_spp: self.b_spp,
             b_source: self.b_source.clone(),
+            importance: self
+                .target
+                .importance
+                .map_or("none".into(), |i| i.source.clone()),
             b_seconds: self.b_seconds,
             bootstrap_seconds: self.bootstrap_seconds,
             bootstrap: self.n_boot,
@@ -682,18 +726,13 @@ fn boot_id(i: usize, slot: usize, depths: usize) -> u64 {
 /// starting states (∝ weight, so that they start in the stationary law). Returns the weights,
 /// depth by depth, and the samples per depth: `s.bootstrap`, or fewer (whole batches, at least
 /// one) when [`startup_over`].
-fn bootstrap(
-    scene: &Scene,
-    alpha: Option<&[f32]>,
-    s: &MmltSettings,
-    depths: &[u32],
-) -> (Vec<f32>, usize) {
+fn bootstrap(scene: &Scene, target: Target, s: &MmltSettings, depths: &[u32]) -> (Vec<f32>, usize) {
     let start = Instant::now();
-    let (nd, target) = (depths.len(), s.bootstrap.max(1));
+    let (nd, wanted) = (depths.len(), s.bootstrap.max(1));
     let mut per_depth: Vec<Vec<f32>> = vec![Vec::new(); nd];
     let mut done = 0;
-    while done < target {
-        let batch = BOOT_BATCH.min(target - done);
+    while done < wanted {
+        let batch = BOOT_BATCH.min(wanted - done);
         if startup_over(s.budget, start, done, batch) {
             break;
         }
@@ -706,7 +745,7 @@ fn bootstrap(
                     let depth = depths[id % nd];
                     let mut sampler =
                         MltSampler::new(s.seed, id as u64, id as u64, s.sigma, s.large_step);
-                    evaluate(scene, &mut sampler, depth, alpha, scratch).y
+                    evaluate(scene, &mut sampler, depth, target, scratch).y
                 },
             )
             .collect();
@@ -723,7 +762,7 @@ fn bootstrap(
 /// in order, so the estimate does not depend on threads.
 fn normalisation(
     scene: &Scene,
-    alpha: Option<&[f32]>,
+    target: Target,
     s: &MmltSettings,
     depths: &[u32],
 ) -> (Vec<f64>, u64) {
@@ -747,8 +786,8 @@ fn normalisation(
                         let Some(slot) = depth.checked_sub(s.min_depth) else {
                             return;
                         };
-                        let a = alpha.map_or(1.0, |a| a[splat.unwrap_or(own)]);
-                        let v = (a * luminance(value)) as f64;
+                        let p = splat.unwrap_or(own);
+                        let v = (target.alpha(p) * target.importance(p) * luminance(value)) as f64;
                         if v.is_finite() {
                             row[slot as usize] += v;
                         }
@@ -827,7 +866,7 @@ fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
 /// sampling error, which their difference cannot show.
 fn start_chains(
     scene: &Scene,
-    alpha: Option<&[f32]>,
+    target: Target,
     s: &MmltSettings,
     (depths, groups): (&[u32], usize),
     weights: &[f32],
@@ -848,7 +887,7 @@ fn start_chains(
             let boot = boot_id(id % n_boot, slot, depths.len());
             let chain_key = (weights.len() + c) as u64;
             let mut sampler = MltSampler::new(s.seed, boot, chain_key, s.sigma, s.large_step);
-            let current = evaluate(scene, &mut sampler, depth, alpha, &mut Scratch::new(depth));
+            let current = evaluate(scene, &mut sampler, depth, target, &mut Scratch::new(depth));
             sampler.accept();
             // Round mutations split as evenly as possible over the chains.
             let quota = ((c + 1) * pixels / chains - c * pixels / chains) as u64;
@@ -962,6 +1001,7 @@ pub fn mcmc_image(
     img.set_float("mixmc.bootstrap", r.bootstrap as f64);
     img.set_float("mixmc.b_spp", r.b_spp as f64);
     img.set_text("mixmc.b_source", r.b_source.clone());
+    img.set_text("mixmc.importance", r.importance.clone());
     img.set_float("mixmc.seconds.b", r.b_seconds);
     img.set_float("mixmc.seconds.bootstrap", r.bootstrap_seconds);
     let b_depth: Vec<String> = r.b_depth.iter().map(|b| format!("{b:e}")).collect();

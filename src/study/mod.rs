@@ -249,6 +249,7 @@ fn render_one(
             let r = render_mmlt(
                 scene,
                 None,
+                None,
                 &MmltSettings {
                     min_depth: 0,
                     max_depth: scene.max_depth,

@@ -278,6 +278,24 @@ fn an_importance_moves_the_effort_and_keeps_the_light_cornell() {
     );
 }
 
+/// `--importance auto` makes its own render first (16 BPT passes, keyed apart from b's) and
+/// still converges to BPT's image.
+#[test]
+fn its_own_importance_keeps_the_light_cornell() {
+    let dir = TempDir::new("importance-auto");
+    let (_, indirect) = reference(CORNELL);
+    let out = dir.join("mcmc.exr");
+    let args = ["--mutations-per-pixel", "512", "--seed", "3"];
+    let img = mmlt(
+        &fixture(CORNELL),
+        &out,
+        &[&args[..], &["--importance", "auto"]].concat(),
+    );
+    assert_close(&out, &indirect);
+    assert_eq!(img.text_attr("mixmc.importance").as_deref(), Some("bpt:16"));
+    assert!(img.float_attr("mixmc.seconds.importance").unwrap() > 0.0);
+}
+
 #[test]
 fn masked_render_estimates_alpha_times_indirect_cornell() {
     masked(CORNELL, "512", &["1"]);

@@ -29,10 +29,11 @@ struct Args {
     /// Mask EXR with an `alpha` channel of the film's size: the target becomes Y(α·C).
     #[arg(long)]
     mask: Option<PathBuf>,
-    /// An EXR render of the scene (R,G,B at any noise level, e.g. a short `mixmc-omc` run): the
+    /// An EXR render of the scene (R,G,B at any noise level, e.g. a short `mixmc-omc` run), or
+    /// `auto` for 16 BPT passes of MMLT's own (at most a tenth of --time, counted in it): the
     /// chains' effort is weighed by the LDR curve's slope at its smoothed level, which puts it
     /// where the paper's LDR error is most sensitive (target g·Y(α·C); unbiased for any g).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE|auto")]
     importance: Option<PathBuf>,
     /// Mutations per pixel [default: 64 unless --time is given]; --spp means the same.
     #[arg(long, conflicts_with_all = ["spp", "time"])]
@@ -115,10 +116,6 @@ fn main() -> ExitCode {
                 );
             }
         }
-        let importance = match &args.importance {
-            Some(p) => Some(Importance::load(p, w, h)?),
-            None => None,
-        };
         let max_depth = args.render.max_depth(scene.max_depth)?;
         let min_depth = if args.include_direct { 0 } else { 2 };
         if max_depth < min_depth {
@@ -141,8 +138,29 @@ fn main() -> ExitCode {
         };
         check_memory(w, h, &settings, 1).map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();
+        let (importance, importance_seconds) = match &args.importance {
+            Some(p) if p.as_os_str() == "auto" => {
+                let share = match budget {
+                    Budget::Seconds(t) => 0.1 * t,
+                    Budget::Passes(_) => f64::INFINITY,
+                };
+                let (own, t) = Importance::from_bpt(&scene, max_depth, args.render.seed, share);
+                (Some(own), t)
+            }
+            Some(p) => (Some(Importance::load(p, w, h)?), 0.0),
+            None => (None, 0.0),
+        };
+        // A time budget holds the importance's own passes too.
+        let settings = match budget {
+            Budget::Seconds(t) => MmltSettings {
+                budget: Budget::Seconds((t - importance_seconds).max(1e-3)),
+                ..settings
+            },
+            Budget::Passes(_) => settings,
+        };
         let r = render(&scene, mask.as_ref(), importance.as_ref(), &settings);
         let mut img = mcmc_image(&scene, mask.as_ref(), &settings, &r);
+        img.set_float("mixmc.seconds.importance", importance_seconds);
         img.set_text(COMMAND_ATTR, command_line());
         img.write(&args.output, false)?;
         if let Some(png) = &args.png {

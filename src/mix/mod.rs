@@ -415,7 +415,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     };
     let given = switch_b.is_some() || (!mcmc_only && job.b_from_omc(method));
     let mmlt_settings = job.mmlt_settings(mcmc_only, given);
-    // MMLT keeps the plain target: the LDR importance (`mmlt::importance`) that takes 0.61–0.70
+    // MMLT keeps the plain target: the LDR importance (`mmlt::importance`) that takes 0.61–0.71
     // of MMLT's error over whole images did not lower its error inside the job's masks
     // (docs/main-job.md, fourteenth round).
     let target = Target {

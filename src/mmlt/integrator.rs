@@ -495,7 +495,8 @@ impl<'a> MmltRun<'a> {
         self.seconds
     }
 
-    /// Each rendered depth's b_d (from `min_depth` up), estimated by the caller, and what from.
+    /// Each rendered depth's b_d (from `min_depth` up: the film mean of the target, g·Y(α·I_d)),
+    /// estimated by the caller, and what from.
     /// The chains' moves do not depend on it: without Kelemen's MIS it only scales the image.
     /// With it, the rounds from now on weigh their splats with it; the plain rounds before (the
     /// main job's pilot, rendered before its OMC passes estimated b_d) are brought to
@@ -757,7 +758,7 @@ fn bootstrap(scene: &Scene, target: Target, s: &MmltSettings, depths: &[u32]) ->
     (per_depth.concat(), done)
 }
 
-/// Each rendered depth's b_d, the mean over the film of Y(α·I_d), from `s.b_spp` BPT passes
+/// Each rendered depth's b_d, the mean over the film of g·Y(α·I_d), from `s.b_spp` BPT passes
 /// (fewer, at least one, when [`startup_over`]), and the number of passes made. Rows are summed
 /// in order, so the estimate does not depend on threads.
 fn normalisation(

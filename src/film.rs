@@ -82,6 +82,14 @@ impl Film {
         }
     }
 
+    /// The beauty's mean over `passes` (at least one): each part's mean, summed.
+    pub fn beauty_mean(&self, passes: u64) -> Vec<[f32; 3]> {
+        let inv = 1.0 / passes.max(1) as f32;
+        (self.direct.iter().zip(&self.indirect))
+            .map(|(d, i)| (*d * inv + *i * inv).to_array())
+            .collect()
+    }
+
     /// Add a value of a path of the given depth to one pixel.
     #[inline]
     pub fn add(&mut self, pixel: usize, depth: u32, value: Rgb) {

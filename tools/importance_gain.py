@@ -14,24 +14,12 @@ indirect light (`indirect.*`), and the ratio is printed inside the mask, outside
 import sys
 
 import numpy as np
-import OpenImageIO as oiio
 
-FLOOR = 1.0 / 512.0
-
-
-def channels(path, names):
-    buf = oiio.ImageBuf(path)
-    if buf.has_error:
-        sys.exit(f"importance_gain.py: {path}: {buf.geterror()}")
-    have = list(buf.spec().channelnames)
-    missing = [n for n in names if n not in have]
-    if missing:
-        sys.exit(f"importance_gain.py: {path}: no channel {missing[0]}")
-    px = buf.get_pixels(oiio.FLOAT)
-    return np.stack([px[:, :, have.index(n)] for n in names], -1).astype(np.float64)
+from linearise import channels, slope
 
 
 def luminance(rgb):
+    rgb = rgb.astype(np.float64)
     return (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]).ravel()
 
 
@@ -39,9 +27,9 @@ def main(argv):
     if len(argv) not in (2, 3):
         sys.exit(__doc__)
     level = luminance(channels(argv[1], ["R", "G", "B"]))
-    slope = np.maximum(np.minimum(level, 1.0), FLOOR) ** (1 / 2.2 - 1)
-    t = np.where(level <= 1.0, slope, 0.0)
-    g = np.where(level <= 1.0, slope, 1.0 / np.maximum(level, 1.0))
+    # g as `mmlt::importance` (above the clamp 1/L of the slope at 1, not 0), T' as the score.
+    t = slope(level)
+    g = np.where(level < 1.0, t, 255 / 2.2 / np.maximum(level, 1.0))
     if len(argv) == 2:
         light, alpha = np.maximum(level, 0.0), np.ones_like(level)
         parts = {"whole": np.ones_like(level, dtype=bool)}

@@ -18,22 +18,10 @@ import sys
 import numpy as np
 import OpenImageIO as oiio
 
-from linearise import box, slope
+from linearise import box, channels, slope
 
 INDIRECT = ["indirect.R", "indirect.G", "indirect.B"]
 RGB = ["R", "G", "B"]
-
-
-def channels(path, names):
-    buf = oiio.ImageBuf(path)
-    if buf.has_error:
-        sys.exit(f"mask_error.py: {path}: {buf.geterror()}")
-    have = list(buf.spec().channelnames)
-    missing = [n for n in names if n not in have]
-    if missing:
-        sys.exit(f"mask_error.py: {path}: no channel {missing[0]}")
-    px = buf.get_pixels(oiio.FLOAT)
-    return np.stack([px[:, :, have.index(n)] for n in names], -1)
 
 
 def main(argv):

@@ -214,8 +214,8 @@ impl Halved {
     /// The smoothed beauty: where MMLT's error is linearised too.
     pub(super) fn level(&self) -> Vec<[f32; 3]> {
         let whole = self.whole();
-        let (d, i) = film_means(&whole.film, whole.passes);
-        crate::metrics::smooth(&add(&d, &i), whole.film.width, whole.film.height)
+        let beauty = whole.film.beauty_mean(whole.passes);
+        crate::metrics::smooth(&beauty, whole.film.width, whole.film.height)
     }
 }
 

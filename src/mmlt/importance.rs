@@ -90,11 +90,7 @@ impl Importance {
             Method::Bpt.render_pass(scene, max_depth, seed ^ OWN_KEY, passes, &mut film);
             passes += 1;
         }
-        let inv = 1.0 / passes as f32;
-        let beauty: Vec<[f32; 3]> = (film.direct.iter().zip(&film.indirect))
-            .map(|(d, i)| ((*d + *i) * inv).to_array())
-            .collect();
-        let level = crate::metrics::smooth(&beauty, w, h);
+        let level = crate::metrics::smooth(&film.beauty_mean(passes), w, h);
         let own = Importance::from_level(&format!("bpt:{passes}"), &level);
         (own, start.elapsed().as_secs_f64())
     }

@@ -272,6 +272,23 @@ fn scenes_worth_rendering_warn_and_give_correct_images() {
     assert_eq!(degenerate, without);
 }
 
+/// The compositor's weights are checked before any file is read: a weight outside [0, 1]
+/// would give a biased image.
+#[test]
+fn composite_weights_outside_zero_to_one_are_one_line_errors() {
+    let tmp = TempDir::new("bad-composite-weights");
+    let out = tmp.join("out.exr");
+    let (i, o) = ("missing.exr", out.to_str().unwrap());
+    for (flag, value) in [("--omc-weight", "1.5"), ("--omc-weight-outside", "-0.5")] {
+        let weight = format!("{flag}={value}");
+        let args = ["--omc", i, "--mask", i, "--mcmc", i, "-o", o, &weight];
+        let run = tool("mixmc-composite", &args, &[]);
+        let needle = format!("{flag} must be in [0, 1]");
+        assert_one_line_error("mixmc-composite", &run, &[&needle]);
+        assert!(!out.exists());
+    }
+}
+
 #[test]
 fn merge_refuses_renders_of_different_sizes() {
     let tmp = TempDir::new("bad-merge-sizes");

@@ -44,8 +44,9 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
         &["--switch", "1", "--omc", "ibpt", "--split", "half"],
     );
     let fin = read(&out);
-    // The paper's split keeps eq. (2): MMLT alone inside the mask.
+    // The paper's split keeps eq. (2): MMLT alone inside the mask, and its ε·I outside it.
     assert_eq!(fin.float_attr("mixmc.omc_weight"), Some(0.0));
+    assert_eq!(fin.float_attr("mixmc.omc_weight_outside"), Some(0.0));
     let snapshot = read(&keep.join("omc-snapshot.exr"));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
@@ -225,11 +226,13 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
                 keep.join("mask.exr"),
                 keep.join("mcmc.exr"),
             );
-            // The measured job weighs OMC's indirect light inside the mask too; the compositor
-            // takes the weight the job wrote.
-            let k = fin.float_attr("mixmc.omc_weight").unwrap().to_string();
+            // The measured job weighs OMC's indirect light inside the mask and outside it; the
+            // compositor takes the weights the job wrote.
+            let k = |key| fin.float_attr(key).unwrap().to_string();
+            let (k_in, k_out) = (k("mixmc.omc_weight"), k("mixmc.omc_weight_outside"));
             let mut args = vec!["--omc", p(&o), "--mask", p(&m), "--mcmc", p(&c)];
-            args.extend(["-o", p(&fin2), "--switch", "1", "--omc-weight", &k]);
+            args.extend(["-o", p(&fin2), "--switch", "1", "--omc-weight", &k_in]);
+            args.extend(["--omc-weight-outside", &k_out]);
             run_ok("mixmc-composite", &args);
             assert_eq!(differ(&rgb(&fin), &rgb(&read(&fin2))), 0);
         }

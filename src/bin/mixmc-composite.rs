@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
-use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, Options, composite};
+use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, OmcWeights, Options, composite};
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
 use mixmc::layout::LightArgs;
@@ -45,6 +45,10 @@ struct Args {
     /// mixmc-mix measures it and writes it as mixmc.omc_weight).
     #[arg(long, default_value_t = 0.0)]
     omc_weight: f32,
+    /// Outside the mask, the weight k of MCMC's ε·I given to OMC: D + (1 − ε + ε·k)·I_omc +
+    /// (1 − k)·I_mcmc (0: eq. (2); mixmc-mix writes it as mixmc.omc_weight_outside).
+    #[arg(long, default_value_t = 0.0)]
+    omc_weight_outside: f32,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -56,8 +60,15 @@ fn main() -> ExitCode {
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
         mixmc::cli::check_switch(args.switch)?;
-        if !(0.0..=1.0).contains(&args.omc_weight) {
-            return Err(mixmc::error::Error::new("--omc-weight must be in [0, 1]"));
+        for (flag, k) in [
+            ("--omc-weight", args.omc_weight),
+            ("--omc-weight-outside", args.omc_weight_outside),
+        ] {
+            if !(0.0..=1.0).contains(&k) {
+                return Err(mixmc::error::Error::new(format!(
+                    "{flag} must be in [0, 1]"
+                )));
+            }
         }
         // The outputs are checked before any work: a render must not be lost to its output.
         mixmc::output::check_all_writable([Some(&args.output), args.png.as_ref()])?;
@@ -80,7 +91,10 @@ fn main() -> ExitCode {
             Options {
                 fxaa: !args.no_fxaa,
                 switch: args.switch,
-                omc_weight: args.omc_weight,
+                omc_weights: OmcWeights {
+                    inside: args.omc_weight,
+                    outside: args.omc_weight_outside,
+                },
             },
         )?;
         for (file, msg) in &result.warnings {
@@ -96,11 +110,15 @@ fn main() -> ExitCode {
         let how = if result.switched {
             format!("MCMC only (complex fraction > --switch {})", args.switch)
         } else {
-            let eq = if args.omc_weight > 0.0 {
-                format!("eq. (2) with OMC weight {} in the mask", args.omc_weight)
-            } else {
-                "eq. (2)".to_string()
-            };
+            let mut eq = "eq. (2)".to_string();
+            for (k, side) in [
+                (args.omc_weight, "in"),
+                (args.omc_weight_outside, "outside"),
+            ] {
+                if k > 0.0 {
+                    eq += &format!(", OMC weight {k} {side} the mask");
+                }
+            }
             if args.no_fxaa {
                 format!("{eq}, no FXAA")
             } else {

@@ -156,14 +156,18 @@ fn main() -> ExitCode {
             .image
             .text_attr("mixmc.b_source")
             .map_or(String::new(), |src| format!(", b from {src}"));
-        let weight = if m.reasons.omc_weight > 0.0 {
-            format!(
-                ", OMC weight {:.2} in the mask (MMLT's error there beyond its halves {:.2})",
-                m.reasons.omc_weight, m.reasons.mcmc_unseen
-            )
-        } else {
-            String::new()
-        };
+        let mut weight = String::new();
+        let r = &m.reasons;
+        for (k, unseen, side) in [
+            (r.omc_weight, r.mcmc_unseen, "in"),
+            (r.omc_weight_outside, r.mcmc_unseen_outside, "outside"),
+        ] {
+            if k > 0.0 {
+                weight += &format!(
+                    ", OMC weight {k:.2} {side} the mask (MMLT's error there beyond its halves {unseen:.2})"
+                );
+            }
+        }
         let pooled = if m.reasons.pooled.is_empty() {
             String::new()
         } else {

@@ -228,30 +228,39 @@ pub struct MixHalf<'a> {
     pub mcmc: &'a [[f32; 3]],
 }
 
-/// Weights [`weight_in_mask`] tries: 0, 1/20, …, 1.
+/// Weights [`weight_of_omc`] tries: 0, 1/20, …, 1.
 const WEIGHT_STEPS: usize = 20;
 
-/// The weight `w` of OMC's indirect light inside the mask (MMLT's gets `1 − w`) whose two
-/// independent half-images `D + w·I_omc + (1 − w)·I_mcmc` differ least in LDR over the `inside`
-/// pixels. Measured in LDR, not linearised as the pilots' rates are: a firefly still clamped to
-/// 255 at weight `w` costs its whole LDR error at any weight, so a spiky OMC estimate helps only
-/// at a weight small enough to bring its spikes below the clamp. The linearised variances gave
-/// OMC 0.23 on cornell-water at 30 s, where 0.2 raised the image's MSE against the reference
-/// by 8% over eq. (2) (docs/main-job.md).
+/// The weight `w` of OMC's indirect light over the `select`ed pixels (inside the mask, or
+/// outside it) whose two independent half-images `D + (1 − α + α·w)·I_omc + (1 − w)·I_mcmc`
+/// differ least in LDR there. MMLT's image estimates α·I, so every weight keeps the pixel's
+/// expectation; inside the mask (α = 1) the composite is `D + w·I_omc + (1 − w)·I_mcmc`, outside
+/// it `w` = 0 is eq. (2), where MMLT's ε-weighted chains add their part ε·I. Measured in LDR, not
+/// linearised as the pilots' rates are: a firefly still clamped to 255 at weight `w` costs its
+/// whole LDR error at any weight, so a spiky OMC estimate helps only at a weight small enough to
+/// bring its spikes below the clamp. The linearised variances gave OMC 0.23 on cornell-water at
+/// 30 s, where 0.2 raised the image's MSE against the reference by 8% over eq. (2)
+/// (docs/main-job.md).
 ///
 /// The halves' difference is blind to what both of MMLT's halves share: `mcmc_unseen`, its
-/// image-mean error inside the mask beyond its halves ([`unseen_error`]), is added at weight
-/// `(1 − w)²`. Without it the job weighed OMC 0.20–0.25 on cornell-torus, where 0.40–0.50 had
-/// 8–14% less in-mask error against the reference in each of eight runs.
-pub fn weight_in_mask(halves: [MixHalf; 2], inside: &[bool], mcmc_unseen: f64) -> f64 {
-    let pixels: Vec<usize> = (0..inside.len()).filter(|&p| inside[p]).collect();
+/// image-mean error over the pixels beyond its halves ([`unseen_error`]), is added at weight
+/// `(1 − w)²`. Without it the job weighed OMC 0.20–0.25 inside the mask on cornell-torus, where
+/// 0.40–0.50 had 8–14% less in-mask error against the reference in each of eight runs.
+pub fn weight_of_omc(
+    halves: [MixHalf; 2],
+    alpha: &[f32],
+    select: &[bool],
+    mcmc_unseen: f64,
+) -> f64 {
+    let pixels: Vec<usize> = (0..select.len()).filter(|&p| select[p]).collect();
     let at = |p: usize, h: &MixHalf, w: f32| -> [f64; 3] {
+        let k = 1.0 - alpha[p] + alpha[p] * w;
         std::array::from_fn(|c| {
-            ldr(h.direct[p][c] + w * h.indirect[p][c] + (1.0 - w) * h.mcmc[p][c])
+            ldr(h.direct[p][c] + k * h.indirect[p][c] + (1.0 - w) * h.mcmc[p][c])
         })
     };
     // The whole's image-mean error: a quarter of the halves' squared difference, per channel.
-    let scale = 1.0 / (4.0 * 3.0 * inside.len().max(1) as f64);
+    let scale = 1.0 / (4.0 * 3.0 * select.len().max(1) as f64);
     let error = |w: f32| -> f64 {
         let halves: f64 = pixels
             .par_iter()
@@ -285,9 +294,10 @@ mod tests {
 
     /// Two estimates of one level with Gaussian noise σ_omc and σ_mcmc (LDR-linear range):
     /// inverse-variance weighting gives OMC σ_mcmc²/(σ_omc² + σ_mcmc²); a spiky OMC estimate
-    /// (a clamped firefly in one pixel of ten) gets (almost) none; outside the mask nothing counts.
+    /// (a clamped firefly in one pixel of ten) gets (almost) none; unselected pixels do not count.
+    /// Outside the mask (α = ε) MMLT's image estimates ε·I and the weight keeps the sum unbiased.
     #[test]
-    fn the_weight_in_the_mask_follows_the_halves_errors() {
+    fn the_weight_follows_the_halves_errors() {
         let n = 20_000usize;
         let mut rng = Rng::new(11, 0, 0);
         let mut gauss = || {
@@ -295,33 +305,46 @@ mod tests {
             ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
         };
         let zero = vec![[0.0f32; 3]; n];
-        let mut noisy =
-            |s: f32| -> Vec<[f32; 3]> { (0..n).map(|_| [0.2 + s * gauss(); 3]).collect() };
+        let mut noisy = |level: f32, s: f32| -> Vec<[f32; 3]> {
+            (0..n).map(|_| [level + s * gauss(); 3]).collect()
+        };
         // σ_omc = 2·σ_mcmc: OMC's weight 1/5.
-        let (ia, ib, ma, mb) = (noisy(0.02), noisy(0.02), noisy(0.01), noisy(0.01));
+        let (ia, ib) = (noisy(0.2, 0.02), noisy(0.2, 0.02));
+        let (ma, mb) = (noisy(0.2, 0.01), noisy(0.2, 0.01));
         let half = |indirect, mcmc| MixHalf {
             direct: &zero,
             indirect,
             mcmc,
         };
-        let inside = vec![true; n];
-        let w = weight_in_mask([half(&ia, &ma), half(&ib, &mb)], &inside, 0.0);
+        let (ones, all) = (vec![1.0f32; n], vec![true; n]);
+        let w = weight_of_omc([half(&ia, &ma), half(&ib, &mb)], &ones, &all, 0.0);
         assert!((w - 0.2).abs() <= 0.05 + 1e-9, "{w}");
         // MMLT's error beyond its halves, as large as what they show, moves weight to OMC:
         // inverse-variance weighting of OMC's 4 against MMLT's 1 + 1 gives OMC 1/3.
         let shown = (ldr_slope(0.2) * 0.01).powi(2) / 2.0;
-        let w = weight_in_mask([half(&ia, &ma), half(&ib, &mb)], &inside, shown);
+        let w = weight_of_omc([half(&ia, &ma), half(&ib, &mb)], &ones, &all, shown);
         assert!((w - 1.0 / 3.0).abs() <= 0.05 + 1e-9, "{w}");
-        // Outside the mask OMC's noise does not count.
-        let outside = vec![false; n];
-        let w = weight_in_mask([half(&ia, &ma), half(&ib, &mb)], &outside, 0.0);
+        // Over no pixels nothing counts.
+        let none = vec![false; n];
+        let w = weight_of_omc([half(&ia, &ma), half(&ib, &mb)], &ones, &none, 0.0);
         assert_eq!(w, 0.0);
         // The same OMC estimate with a firefly (value 100) in every tenth pixel of one half.
         let mut spiky = ia.clone();
         for p in (0..n).step_by(10) {
             spiky[p] = [100.0; 3];
         }
-        let w = weight_in_mask([half(&spiky, &ma), half(&ib, &mb)], &inside, 0.0);
+        let w = weight_of_omc([half(&spiky, &ma), half(&ib, &mb)], &ones, &all, 0.0);
+        assert_eq!(w, 0.0);
+        // Outside the mask, α = ε = 0.1: MMLT's 0.02 ± σ_m estimates ε·I. The composite's error
+        // (1 − ε + ε·w)²·σ_o² + (1 − w)²·σ_m² is least at
+        // w = (σ_m² − ε(1 − ε)·σ_o²)/(σ_m² + ε²·σ_o²): 0.615 for σ_o = 0.02, σ_m = 0.01.
+        let (ma, mb) = (noisy(0.02, 0.01), noisy(0.02, 0.01));
+        let eps = vec![0.1f32; n];
+        let w = weight_of_omc([half(&ia, &ma), half(&ib, &mb)], &eps, &all, 0.0);
+        assert!((w - 0.615).abs() <= 0.05 + 1e-9, "{w}");
+        // Where MMLT's ε·I is as good as exact, eq. (2) stands.
+        let (ma, mb) = (noisy(0.02, 0.0), noisy(0.02, 0.0));
+        let w = weight_of_omc([half(&ia, &ma), half(&ib, &mb)], &eps, &all, 0.0);
         assert_eq!(w, 0.0);
     }
 

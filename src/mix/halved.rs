@@ -3,9 +3,7 @@
 //! renders' halves (`estimate`), split at the mask.
 
 use super::Job;
-use super::estimate::{
-    Halves, MixHalf, add, film_means, total_error, unseen_error, weight_in_mask,
-};
+use super::estimate::{Halves, MixHalf, add, film_means, total_error, unseen_error, weight_of_omc};
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
@@ -177,32 +175,40 @@ impl Halved {
         self.as_halves(&a, &b).ldr_error(level)
     }
 
-    /// The OMC weight inside the mask (complex `alpha`) for the final composite, from this
-    /// render's halves and MMLT's (`estimate::weight_in_mask`), and MMLT's error inside the
-    /// mask that its halves do not show (`estimate::unseen_error`, against OMC's indirect light).
-    /// Not its whole error less what its halves show (`estimate::total_error`, which the
-    /// decision uses): in the weight that raised OMC's share on cornell-water from 0.15 to
-    /// 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on the torus
-    /// (docs/main-job.md, eleventh round).
-    pub(super) fn weight_in_mask(&self, run: &MmltRun, alpha: &[f32]) -> (f64, f64) {
+    /// OMC's weights for the final composite, `[outside, inside]` the mask, from this render's
+    /// halves and MMLT's (`estimate::weight_of_omc`), and MMLT's error there that its halves do
+    /// not show (`estimate::unseen_error`, against OMC's indirect light times α, which MMLT's
+    /// image estimates). Not its whole error less what its halves show
+    /// (`estimate::total_error`, which the decision uses): in the weight that raised OMC's share
+    /// on cornell-water from 0.15 to 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on
+    /// the torus (docs/main-job.md, eleventh round).
+    pub(super) fn weights(&self, run: &MmltRun, alpha: &[f32]) -> [(f64, f64); 2] {
         let [(da, ia), (db, ib)] = self.half_means();
         let [ma, mb] = run.halves();
         let inside = complex_pixels(alpha);
         let size = (self.odd.width, self.odd.height);
-        let unseen = unseen_error(
-            &Halves::equal(&ma, &mb),
-            &self.as_halves(&ia, &ib),
-            &self.level(),
-            size,
-            &inside,
-        );
+        let level = self.level();
+        let times_alpha = |i: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            i.iter().zip(alpha).map(|(x, a)| x.map(|v| v * a)).collect()
+        };
+        let (sa, sb) = (times_alpha(&ia), times_alpha(&ib));
         let half = |direct, indirect, mcmc| MixHalf {
             direct,
             indirect,
             mcmc,
         };
-        let w = weight_in_mask([half(&da, &ia, &ma), half(&db, &ib, &mb)], &inside, unseen);
-        (w, unseen)
+        [false, true].map(|side| {
+            let select: Vec<bool> = inside.iter().map(|&c| c == side).collect();
+            let unseen = unseen_error(
+                &Halves::equal(&ma, &mb),
+                &self.as_halves(&sa, &sb),
+                &level,
+                size,
+                &select,
+            );
+            let halves = [half(&da, &ia, &ma), half(&db, &ib, &mb)];
+            (weight_of_omc(halves, alpha, &select, unseen), unseen)
+        })
     }
 
     /// The means of each half's beauty (D + I).

@@ -15,9 +15,9 @@
 //! 4. the rest of the budget, as decided: OMC's passes, then MMLT's normalisation from them
 //!    (above the switch, the snapshot's and the losing pilots' that hold BPT's strategies),
 //!    then MMLT's chains, which weigh their large steps with Kelemen's MIS once b_d is known;
-//! 5. the weight of OMC's indirect light inside the mask, where both methods have rendered it
-//!    (`estimate::weight_in_mask`);
-//! 6. the composite: eq. (2) with that weight.
+//! 5. the weights of OMC's indirect light inside the mask and outside it, where both methods
+//!    have rendered it (`estimate::weight_of_omc`);
+//! 6. the composite: eq. (2) with those weights.
 //!
 //! Errors are estimated from independent halves of each render (`estimate`, `halved`), so no
 //! reference is needed; what was measured and weighed is kept as data (`plan::Reasons`) and
@@ -31,7 +31,7 @@ mod pilot;
 pub mod plan;
 mod pool;
 
-use crate::composite::{Composite, Input, OmcInput, Options, composite};
+use crate::composite::{Composite, Input, OmcInput, OmcWeights, Options, composite};
 use crate::error::{Error, Result};
 use crate::exrio::ExrImage;
 use crate::film::GBuffer;
@@ -512,13 +512,16 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         run.run(Budget::Seconds(run.seconds() + job.left().max(0.0)));
     }
 
-    // 5. Inside the mask OMC's and MMLT's estimates of the indirect light are weighed by their
-    // errors as measured at the end (`estimate::weight_in_mask`); the fixed splits keep eq. (2).
+    // 5. OMC's and MMLT's estimates of the indirect light are weighed by their errors as
+    // measured at the end, inside the mask and outside it (`estimate::weight_of_omc`); the
+    // fixed splits keep eq. (2).
     if let (Some(run), Choice::Mix { .. }) = (&mmlt, choice)
         && measured
         && !partial
     {
-        (reasons.omc_weight, reasons.mcmc_unseen) = omc.weight_in_mask(run, alpha);
+        let [outside, inside] = omc.weights(run, alpha);
+        (reasons.omc_weight, reasons.mcmc_unseen) = inside;
+        (reasons.omc_weight_outside, reasons.mcmc_unseen_outside) = outside;
     }
 
     // 6. The images, and the composite the choice makes of them.
@@ -609,7 +612,10 @@ fn compose(
                 Options {
                     fxaa: job.s.fxaa,
                     switch: job.s.mask.switch,
-                    omc_weight: reasons.omc_weight as f32,
+                    omc_weights: OmcWeights {
+                        inside: reasons.omc_weight as f32,
+                        outside: reasons.omc_weight_outside as f32,
+                    },
                 },
             )?;
             if let Some((file, msg)) = c.warnings.first() {
@@ -673,6 +679,8 @@ fn above_switch_b(
 fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.omc_weight", reasons.omc_weight);
     image.set_float("mixmc.mcmc_unseen", reasons.mcmc_unseen);
+    image.set_float("mixmc.omc_weight_outside", reasons.omc_weight_outside);
+    image.set_float("mixmc.mcmc_unseen_outside", reasons.mcmc_unseen_outside);
     image.set_float("mixmc.mask_error_share", reasons.mask_share);
     image.set_float("mixmc.mcmc_pilot_share", reasons.pilot_share);
     if !reasons.pooled.is_empty() {

@@ -3,7 +3,9 @@
 
 mod util;
 
+use mixmc::composite::DEFAULT_SWITCH;
 use mixmc::exrio::ExrImage;
+use mixmc::mix::MEASURED_SWITCH;
 use mixmc::mix::plan::worth_a_pilot;
 use std::path::Path;
 use util::{TempDir, assert_one_line_error, bin, fixture, run_ok};
@@ -167,6 +169,35 @@ fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmaske
     util::assert_direct_plus_mcmc(&omc, &mcmc, &fin);
 }
 
+/// The measured job renders MCMC alone only above `MEASURED_SWITCH` of the pixels marked; the
+/// paper's fixed split keeps the paper's 35%. The tiny caustic's mask marks 57–68%.
+#[test]
+fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_papers() {
+    let tmp = TempDir::new("mix-switch-default");
+    for (name, extra, switch) in [
+        ("measured", &[][..], MEASURED_SWITCH),
+        (
+            "half",
+            &["--omc", "ibpt", "--split", "half"][..],
+            DEFAULT_SWITCH,
+        ),
+    ] {
+        let (keep, out) = (tmp.join(name), tmp.join(&format!("{name}.exr")));
+        mix_caustic("2", &out, &keep, extra);
+        let fin = read(&out);
+        let c = fin.float_attr("mixmc.complex_fraction").unwrap();
+        let switched = fin.text_attr("mixmc.switched").unwrap() == "true";
+        assert_eq!(switched, c > switch, "{extra:?}: complex fraction {c}");
+        // Above it the measured job's image is MMLT's own; the paper's is D_omc + I_mcmc.
+        if switched && name == "measured" {
+            assert_eq!(
+                fin.text_attr("mixmc.decision").as_deref(),
+                Some("mcmc-only")
+            );
+        }
+    }
+}
+
 #[test]
 fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give() {
     let tmp = TempDir::new("mix-measured");
@@ -198,6 +229,11 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     let names: Vec<&str> = rates.iter().map(|(k, _)| k.as_str()).collect();
     assert_eq!(names, ["pt", "bpt", "ibpt", "lt"], "{rates:?}");
     assert_eq!(exponents.len(), 4, "{exponents:?}");
+    // The shared views are one set of paths and take one exponent, BPT's view's.
+    assert!(
+        exponents[1..].iter().all(|(_, k)| *k == exponents[1].1),
+        "{exponents:?}"
+    );
     for ((rate, k), e) in rates.iter().zip(&exponents).zip(&projected) {
         assert!((0.5..=1.0).contains(&k.1), "{exponents:?}");
         // rate ÷ budget: the error at the budget if it fell as 1/t.

@@ -50,9 +50,10 @@ struct Args {
     /// The literal paper mask (no spike gate).
     #[arg(long)]
     paper_mask: bool,
-    /// Above this fraction of complex pixels render MCMC only.
-    #[arg(long, default_value_t = 0.35)]
-    switch: f64,
+    /// Above this fraction of complex pixels render MCMC only [default: 0.9 with the measured
+    /// split, the paper's 0.35 with the fixed ones].
+    #[arg(long)]
+    switch: Option<f64>,
     /// ε: the mask's value outside complex regions (0 < ε < 0.5).
     #[arg(long, default_value_t = MaskParams::default().epsilon)]
     epsilon: f32,
@@ -91,7 +92,8 @@ fn main() -> ExitCode {
         let args = Args::parse();
         // SAFETY: the first thing `main` does after parsing its arguments; no thread exists yet.
         unsafe { init_threads(args.threads) }?;
-        check_switch(args.switch)?;
+        let switch = args.switch.unwrap_or(args.split.default_switch());
+        check_switch(switch)?;
         if !(args.epsilon > 0.0 && args.epsilon < 0.5) {
             return Err(Error::new("--epsilon must be in (0, 0.5)"));
         }
@@ -114,7 +116,7 @@ fn main() -> ExitCode {
             mask_spp: args.mask_spp,
             mask: MaskParams {
                 paper: args.paper_mask,
-                switch: args.switch,
+                switch,
                 epsilon: args.epsilon,
                 ..MaskParams::default()
             },

@@ -100,6 +100,17 @@ const MIN_MASK_SPP: u64 = 16;
 /// MMLT's pilot after its start-up, as a share of the budget; its chains go on if MMLT is kept.
 const MCMC_PILOT: f64 = 0.05;
 
+/// The measured job's switch to MCMC alone. The paper's 35% holds for its eq. (2) at a half
+/// split, where OMC's half of the time is spent on the pixels outside a mask that covers most of
+/// the image. The measured job weighs OMC's and MMLT's estimates on both sides of the mask and
+/// splits the time by their measured errors, and there a large mask did better as a mix: at
+/// 30 s a glass sphere's caustic (`caustic`, 57–68% marked) scored 1.32–1.39 mixed against MCMC
+/// alone's 3.1–3.4 and BPT alone's 1.44–1.56, and a mirror-and-glass studio (42–46% marked)
+/// 18.0–19.2 against MCMC alone's 24.6–26.0 and MMLT alone's 26.2–28.7 (docs/main-job.md,
+/// fifteenth round). `stress`, where every light path is hard, is marked 98.6–100% and still
+/// switches.
+pub const MEASURED_SWITCH: f64 = 0.9;
+
 /// How the time budget is divided between OMC (with the mask) and MMLT.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Split {
@@ -118,6 +129,15 @@ impl Split {
             Split::Measured => "measured",
             Split::Half => "half",
             Split::Auto => "auto",
+        }
+    }
+
+    /// The fraction of complex pixels above which the job renders MCMC alone, unless the user
+    /// gives one: the paper's 35% for its fixed splits, `MEASURED_SWITCH` for the measured one.
+    pub fn default_switch(self) -> f64 {
+        match self {
+            Split::Measured => MEASURED_SWITCH,
+            Split::Half | Split::Auto => crate::composite::DEFAULT_SWITCH,
         }
     }
 

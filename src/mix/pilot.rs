@@ -140,17 +140,31 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let halves = |i: usize| pilots[i].1.as_halves(&beauties[i][0], &beauties[i][1]);
     // Each pilot's image-mean error as it stands, its variance's convergence exponent, and the
     // error that projects to at the job's budget.
+    let levels: Vec<_> = pilots.iter().map(|(_, r)| r.level()).collect();
+    let variances: Vec<f64> = (pilots.iter().zip(&levels))
+        .map(|((_, r), level)| mean(&r.errors(None, level)))
+        .collect();
+    let exponents: Vec<f64> = (0..pilots.len())
+        .map(|i| exponent(early[i], (pilots[i].1.even.passes, variances[i])))
+        .collect();
+    // The shared views are one set of paths: when a firefly turns up in the second half of the
+    // pilot it lowers every view's measured exponent, each by the chance of its own weights.
+    // They take one exponent, the view that holds every strategy's (BPT's): on `caustic` (a
+    // glass sphere's caustic, 128²) BPT's 0.50 against LT's 0.74 sent a job to LT with 1.7×
+    // BPT's rate, and LT alone had 1.7× BPT's error at 30 s (docs/main-job.md, fifteenth round).
+    let shared_exponent = reference.map(|k| exponents[k]);
     let mut errors = Vec::new();
     let mut candidates = Vec::new();
     for (i, (m, r)) in pilots.iter().enumerate() {
-        let level = r.level();
         let missing = match reference {
-            Some(k) if k != i => missing_light(&halves(i), &halves(k), &level, w, h),
+            Some(k) if k != i => missing_light(&halves(i), &halves(k), &levels[i], w, h),
             _ => 0.0,
         };
-        let variance = mean(&r.errors(None, &level));
-        let exponent = exponent(early[i], (r.even.passes, variance));
-        let e = variance + missing;
+        let exponent = match shared_exponent {
+            Some(k) if *m != ALONE => k,
+            _ => exponents[i],
+        };
+        let e = variances[i] + missing;
         errors.push(e);
         candidates.push(Candidate {
             method: *m,

@@ -280,7 +280,10 @@ fn render_one(
                     seconds: budget,
                     split,
                     mask_spp: 64,
-                    mask: MaskParams::default(),
+                    mask: MaskParams {
+                        switch: split.default_switch(),
+                        ..MaskParams::default()
+                    },
                     seed,
                     max_depth: scene.max_depth,
                     chains: 256,

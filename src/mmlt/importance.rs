@@ -75,9 +75,7 @@ impl Importance {
         let level = crate::metrics::smooth(&rgb, width, height);
         Ok(Importance::from_level(&path.display().to_string(), &level))
     }
-}
 
-impl Importance {
     /// From [`OWN_SPP`] BPT passes of the scene's every light path (fewer, at least one, once
     /// `seconds` are spent), for an MMLT render that has no other render of its scene; also
     /// returns the seconds they took.

@@ -59,6 +59,26 @@ fn exponent((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> f64 {
     ((e1 / e2).ln() / (n2 as f64 / n1 as f64).ln()).clamp(K_MIN, 1.0)
 }
 
+/// Each pilot's exponent as the ranking uses it. The shared views are one set of paths: when a
+/// firefly turns up in the second half of the pilot it lowers every view's measured exponent,
+/// each by the chance of its own weights. They take one exponent, the view that holds every
+/// strategy's (BPT's); PT, with a pilot of its own, keeps its own. On `caustic` (a glass
+/// sphere's caustic, 128²) BPT's 0.50 against LT's 0.74 sent a job to LT with 1.7× BPT's rate,
+/// and LT alone had 1.7× BPT's error at 30 s (docs/main-job.md, fifteenth round).
+fn shared_exponents(measured: &[(Method, f64)]) -> Vec<f64> {
+    let bpt = measured
+        .iter()
+        .find(|(m, _)| *m == Method::Bpt)
+        .map(|p| p.1);
+    measured
+        .iter()
+        .map(|&(m, k)| match bpt {
+            Some(b) if m != ALONE => b,
+            _ => k,
+        })
+        .collect()
+}
+
 /// The seed of the winner's passes after its pilot. The pilots share the job's seed, so that
 /// their passes share their camera (BPT's and IBPT's also their light) random numbers: their
 /// errors are then compared on the same paths, which ranks the near ties between IBPT and BPT
@@ -144,15 +164,13 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let variances: Vec<f64> = (pilots.iter().zip(&levels))
         .map(|((_, r), level)| mean(&r.errors(None, level)))
         .collect();
-    let exponents: Vec<f64> = (0..pilots.len())
-        .map(|i| exponent(early[i], (pilots[i].1.even.passes, variances[i])))
+    let measured: Vec<(Method, f64)> = (0..pilots.len())
+        .map(|i| {
+            let k = exponent(early[i], (pilots[i].1.even.passes, variances[i]));
+            (pilots[i].0, k)
+        })
         .collect();
-    // The shared views are one set of paths: when a firefly turns up in the second half of the
-    // pilot it lowers every view's measured exponent, each by the chance of its own weights.
-    // They take one exponent, the view that holds every strategy's (BPT's): on `caustic` (a
-    // glass sphere's caustic, 128²) BPT's 0.50 against LT's 0.74 sent a job to LT with 1.7×
-    // BPT's rate, and LT alone had 1.7× BPT's error at 30 s (docs/main-job.md, fifteenth round).
-    let shared_exponent = reference.map(|k| exponents[k]);
+    let exponents = shared_exponents(&measured);
     let mut errors = Vec::new();
     let mut candidates = Vec::new();
     for (i, (m, r)) in pilots.iter().enumerate() {
@@ -160,10 +178,7 @@ pub(super) fn partner(job: &Job) -> Chosen {
             Some(k) if k != i => missing_light(&halves(i), &halves(k), &levels[i], w, h),
             _ => 0.0,
         };
-        let exponent = match shared_exponent {
-            Some(k) if *m != ALONE => k,
-            _ => exponents[i],
-        };
+        let exponent = exponents[i];
         let e = variances[i] + missing;
         errors.push(e);
         candidates.push(Candidate {
@@ -268,6 +283,20 @@ pub(super) fn mcmc<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_shared_views_take_bpts_exponent_and_pt_keeps_its_own() {
+        let measured = [
+            (Method::Pt, 0.6),
+            (Method::Bpt, 0.5),
+            (Method::Ibpt, 0.9),
+            (Method::Lt, 0.74),
+        ];
+        assert_eq!(shared_exponents(&measured), [0.6, 0.5, 0.5, 0.5]);
+        // Without BPT's view each keeps its own.
+        let alone = [(Method::Pt, 0.6), (Method::Lt, 0.74)];
+        assert_eq!(shared_exponents(&alone), [0.6, 0.74]);
+    }
 
     #[test]
     fn the_exponent_is_the_slope_of_the_error_against_the_passes_within_its_bounds() {

@@ -49,6 +49,8 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
     // The paper's split keeps eq. (2): MMLT alone inside the mask, and its ε·I outside it.
     assert_eq!(fin.float_attr("mixmc.omc_weight"), Some(0.0));
     assert_eq!(fin.float_attr("mixmc.omc_weight_outside"), Some(0.0));
+    // And the paper's FXAA on the mask's borders.
+    assert_eq!(fin.text_attr("mixmc.fxaa").as_deref(), Some("true"));
     let snapshot = read(&keep.join("omc-snapshot.exr"));
     let omc = read(&keep.join("omc.exr"));
     let mcmc = read(&keep.join("mcmc.exr"));
@@ -181,6 +183,7 @@ fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_pap
             &["--omc", "ibpt", "--split", "half"][..],
             DEFAULT_SWITCH,
         ),
+        ("measured-fxaa", &["--fxaa"][..], MEASURED_SWITCH),
     ] {
         let (keep, out) = (tmp.join(name), tmp.join(&format!("{name}.exr")));
         mix_caustic("2", &out, &keep, extra);
@@ -188,6 +191,9 @@ fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_pap
         let c = fin.float_attr("mixmc.complex_fraction").unwrap();
         let switched = fin.text_attr("mixmc.switched").unwrap() == "true";
         assert_eq!(switched, c > switch, "{extra:?}: complex fraction {c}");
+        // FXAA on the mask's borders: the paper's, or asked for.
+        let fxaa = fin.text_attr("mixmc.fxaa").unwrap() == "true";
+        assert_eq!(fxaa, name != "measured", "{extra:?}");
         // Above it the measured job's image is MMLT's own; the paper's is D_omc + I_mcmc.
         if switched && name == "measured" {
             assert_eq!(
@@ -247,6 +253,8 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     let (keep, out) = (tmp.join("caustic"), tmp.join("caustic.exr"));
     mix_caustic("3", &out, &keep, &["--switch", "1"]);
     let fin = read(&out);
+    // The measured job leaves the mask's borders unsmoothed unless asked (`--fxaa`).
+    assert_eq!(fin.text_attr("mixmc.fxaa").as_deref(), Some("false"));
     let omc = read(&keep.join("omc.exr"));
     match fin.text_attr("mixmc.decision").as_deref() {
         Some("omc-only") => assert_eq!(differ(&rgb(&fin), &rgb(&omc)), 0),
@@ -258,14 +266,20 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
                 keep.join("mcmc.exr"),
             );
             // The measured job weighs OMC's indirect light inside the mask and outside it; the
-            // compositor takes the weights the job wrote.
+            // compositor takes the weights the job wrote, and no FXAA.
             let k = |key| fin.float_attr(key).unwrap().to_string();
             let (k_in, k_out) = (k("mixmc.omc_weight"), k("mixmc.omc_weight_outside"));
             let mut args = vec!["--omc", p(&o), "--mask", p(&m), "--mcmc", p(&c)];
             args.extend(["-o", p(&fin2), "--switch", "1", "--omc-weight", &k_in]);
-            args.extend(["--omc-weight-outside", &k_out]);
+            args.extend(["--omc-weight-outside", &k_out, "--no-fxaa"]);
             run_ok("mixmc-composite", &args);
             assert_eq!(differ(&rgb(&fin), &rgb(&read(&fin2))), 0);
+            // FXAA would have changed it: the mask has borders where it smooths.
+            args.pop();
+            run_ok("mixmc-composite", &args);
+            let smoothed = read(&fin2);
+            assert!(smoothed.float_attr("mixmc.fxaa_pixels").unwrap() > 0.0);
+            assert!(differ(&rgb(&fin), &rgb(&smoothed)) > 0);
         }
         other => panic!("below the switch the job chose {other:?}"),
     }

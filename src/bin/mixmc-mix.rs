@@ -64,9 +64,12 @@ struct Args {
     /// MMLT's time).
     #[arg(long, default_value_t = 100_000)]
     bootstrap: usize,
-    /// Skip FXAA on the mask's borders.
-    #[arg(long)]
+    /// Skip FXAA on the mask's borders [the default with the measured split].
+    #[arg(long, conflicts_with = "fxaa")]
     no_fxaa: bool,
+    /// FXAA on the mask's borders [the default with the paper's fixed splits].
+    #[arg(long)]
+    fxaa: bool,
     /// Also write an sRGB preview PNG.
     #[arg(long)]
     png: Option<PathBuf>,
@@ -124,7 +127,7 @@ fn main() -> ExitCode {
             max_depth: max_depth(args.max_depth, scene.max_depth)?,
             chains: args.chains,
             bootstrap: args.bootstrap,
-            fxaa: !args.no_fxaa,
+            fxaa: args.fxaa || (!args.no_fxaa && args.split.default_fxaa()),
             quiet: args.quiet,
         };
         mixmc::signal::install();

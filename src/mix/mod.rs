@@ -141,6 +141,17 @@ impl Split {
         }
     }
 
+    /// Whether FXAA smooths the mask's borders, unless the user says: the paper's rule for its
+    /// fixed splits, whose eq. (2) joins two images of different noise at a seam. The measured
+    /// job weighs both images on both sides of the border, so no seam is left to hide, and FXAA
+    /// only blurs what lies on it: recomposed from the same kept files without it, its error fell
+    /// in ten of eleven jobs at 30–120 s on the paper scenes (at 120 s by 0.5–11%), and by half
+    /// on the glass caustic at 120 s, whose focus lies on the border (1.55 to 0.78; FLIP 0.0128
+    /// to 0.0118; docs/main-job.md, sixteenth round).
+    pub fn default_fxaa(self) -> bool {
+        self != Split::Measured
+    }
+
     /// MMLT's share of the budget for a mask with complex fraction `c` (1 when MCMC-only);
     /// NaN for `Measured`, which has no fixed share (`plan` decides it).
     ///
@@ -766,6 +777,8 @@ fn set_header(
     image.set_float("mixmc.budget", s.seconds);
     image.set_float("mixmc.seconds", phases.total);
     image.set_text("mixmc.split", s.split.name());
+    // The setting, whatever the choice; where the image is a composite it is what was applied.
+    image.set_text("mixmc.fxaa", if s.fxaa { "true" } else { "false" });
     image.set_float("mixmc.mcmc_share", share);
     image.set_float("mixmc.mask_spp", s.mask_spp as f64);
     image.set_float("mixmc.spp", omc.float_attr("mixmc.spp").unwrap_or(0.0));

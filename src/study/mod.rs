@@ -288,7 +288,7 @@ fn render_one(
                     max_depth: scene.max_depth,
                     chains: 256,
                     bootstrap: plan.bootstrap,
-                    fxaa: true,
+                    fxaa: split.default_fxaa(),
                     quiet: true,
                 },
                 Path::new(""),

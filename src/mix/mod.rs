@@ -144,10 +144,10 @@ impl Split {
     /// Whether FXAA smooths the mask's borders, unless the user says: the paper's rule for its
     /// fixed splits, whose eq. (2) joins two images of different noise at a seam. The measured
     /// job weighs both images on both sides of the border, so no seam is left to hide, and FXAA
-    /// only blurs what lies on it: recomposed from the same kept files without it, its error fell
-    /// in ten of eleven jobs at 30–120 s on the paper scenes (at 120 s by 0.5–11%), and by half
-    /// on the glass caustic at 120 s, whose focus lies on the border (1.55 to 0.78; FLIP 0.0128
-    /// to 0.0118; docs/main-job.md, sixteenth round).
+    /// only blurs what lies on it: recomposed from the same kept files without it, the error of
+    /// eleven paper-scene jobs fell in all four at 120 s (by 0.5–11%) and moved by −3% to +1.9%
+    /// at 30 s, and on the glass caustic at 120 s, whose bright rim lies on the border, it halved
+    /// (1.55 to 0.78; docs/main-job.md, sixteenth round).
     pub fn default_fxaa(self) -> bool {
         self != Split::Measured
     }

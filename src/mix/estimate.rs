@@ -408,6 +408,19 @@ mod tests {
         assert_eq!(h.ldr_error(&vec![[1.5; 3]; n]).iter().sum::<f64>(), 0.0);
     }
 
+    /// Side of the block tests' images.
+    const SIDE: usize = 64;
+
+    /// Images of `SIDE`² pixels at a given level with uniform noise of ±0.01, from `seed`.
+    fn noisy_images(seed: u64) -> impl FnMut(f32) -> Vec<[f32; 3]> {
+        let mut rng = Rng::new(seed, 0, 0);
+        move |mean| {
+            (0..SIDE * SIDE)
+                .map(|_| [mean + 0.02 * (rng.next_1d() - 0.5); 3])
+                .collect()
+        }
+    }
+
     /// A render's block-wise difference from an independent one beyond both renders' noise:
     /// noise alone is not counted as missing light, and summed with its sign it comes to about
     /// nothing, where clamping each block counts its upper half (pixel by pixel a tenth of a
@@ -416,13 +429,8 @@ mod tests {
     /// whole unseen error there and none elsewhere.
     #[test]
     fn systematic_differences_are_found_and_noise_is_not() {
-        let (w, h) = (64usize, 64usize);
-        let mut rng = Rng::new(11, 0, 0);
-        let mut noisy = |mean: f32| -> Vec<[f32; 3]> {
-            (0..w * h)
-                .map(|_| [mean + 0.02 * (rng.next_1d() - 0.5); 3])
-                .collect()
-        };
+        let (w, h) = (SIDE, SIDE);
+        let mut noisy = noisy_images(11);
         let (ra, rb) = (noisy(0.3), noisy(0.3));
         let reference = Halves::equal(&ra, &rb);
         let level = vec![[0.3f32; 3]; w * h];
@@ -472,13 +480,8 @@ mod tests {
     /// the dark ones' whole error, and `unseen_error` takes it.
     #[test]
     fn an_error_held_by_a_few_pixels_of_each_block_is_seen() {
-        let (w, h) = (64usize, 64usize);
-        let mut rng = Rng::new(13, 0, 0);
-        let mut noisy = |mean: f32| -> Vec<[f32; 3]> {
-            (0..w * h)
-                .map(|_| [mean + 0.02 * (rng.next_1d() - 0.5); 3])
-                .collect()
-        };
+        let (w, h) = (SIDE, SIDE);
+        let mut noisy = noisy_images(13);
         let (ra, rb) = (noisy(0.3), noisy(0.3));
         let reference = Halves::equal(&ra, &rb);
         let level = vec![[0.3f32; 3]; w * h];

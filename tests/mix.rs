@@ -130,6 +130,8 @@ fn without_fxaa_the_jobs_image_is_its_files_recomposed_without_it() {
     mix_caustic("2", &out, &keep, &[&fixed[..], &["--no-fxaa"]].concat());
     let fin = read(&out);
     assert_eq!(fin.text_attr("mixmc.decision").as_deref(), Some("mix"));
+    // The fixed splits keep their share: no checkpoint decides it again.
+    assert_eq!(fin.text_attr("mixmc.checkpoint.decision"), None);
     assert_eq!(fin.float_attr("mixmc.fxaa_pixels"), Some(0.0));
     let fin2 = tmp.join("recomposed.exr");
     let (o, m, c) = (
@@ -235,6 +237,59 @@ fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_pap
     }
 }
 
+/// Where the pilot chose the mix, the checkpoint after OMC's share decided the rest, with OMC's
+/// render further on and MMLT's where its pilot left it; where it chose OMC alone there was
+/// none. Returns whether there was one.
+fn checked_again_where_the_pilot_mixed(fin: &ExrImage) -> bool {
+    let f = |k: &str| fin.float_attr(k).unwrap_or(f64::NAN);
+    let checkpoint = fin.text_attr("mixmc.checkpoint.decision");
+    if f("mixmc.predicted.mix") >= f("mixmc.predicted.omc_alone") {
+        assert_eq!(checkpoint, None);
+        return false;
+    }
+    assert_eq!(fin.text_attr("mixmc.decision"), checkpoint);
+    let v = f("mixmc.checkpoint.predicted.mix");
+    assert!(v.is_finite() && v >= 0.0, "checkpoint's mix {v}");
+    let seconds = |k| f(&format!("mixmc.{k}measured_seconds.omc"));
+    assert!(
+        seconds("checkpoint.") > seconds(""),
+        "OMC rendered nothing more"
+    );
+    let seconds = |k| f(&format!("mixmc.{k}measured_seconds.mcmc"));
+    assert_eq!(seconds("checkpoint."), seconds(""));
+    // MMLT's pace, as its pilot measured it, carries to the checkpoint.
+    let k = f("mixmc.rate.mcmc_exponent");
+    assert!((0.5..=1.0).contains(&k), "pace {k}");
+    assert_eq!(f("mixmc.checkpoint.rate.mcmc_exponent"), k);
+    true
+}
+
+#[test]
+fn a_mix_is_decided_again_once_omc_has_rendered_its_share() {
+    // cornell-water's tiny twin, whose pilot mixes with a margin (predicted 23–25 against OMC
+    // alone's 33–34 on this seed).
+    let tmp = TempDir::new("mix-checkpoint");
+    let out = tmp.join("water.exr");
+    let scene = fixture("scenes/cornell-water-tiny.json");
+    let mut args = vec![
+        scene.as_str(),
+        "--time",
+        "4",
+        "--mask-spp",
+        "16",
+        "-o",
+        p(&out),
+    ];
+    args.extend(["--switch", "1", "--seed", "2", "-q"]);
+    args.extend(FAST);
+    run_ok("mixmc-mix", &args);
+    let fin = read(&out);
+    assert!(
+        checked_again_where_the_pilot_mixed(&fin),
+        "the pilot did not mix"
+    );
+}
+
 #[test]
 fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give() {
     let tmp = TempDir::new("mix-measured");
@@ -322,6 +377,7 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
                 let v = fin.float_attr(k).unwrap_or(f64::NAN);
                 assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
             }
+            checked_again_where_the_pilot_mixed(&fin);
         } else {
             let pilot = fin.float_attr("mixmc.mcmc_pilot_share").unwrap();
             assert!(

@@ -9,6 +9,7 @@ use mixmc::cli::{
 use mixmc::error::Error;
 use mixmc::film::write_beauty_png;
 use mixmc::mask::MaskParams;
+use mixmc::mix::plan::Choice;
 use mixmc::mix::{KEEP_NAMES, MixSettings, Partner, Split, mix};
 use mixmc::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -187,8 +188,24 @@ fn main() -> ExitCode {
         } else {
             String::new()
         };
+        // The pilot chose the mix; the checkpoint, with OMC's share rendered, decided the rest.
+        let checked = match &r.checkpoint {
+            Some((d, rates)) => format!(
+                " (checkpoint: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
+                 error ∝ t^-{:.2})",
+                d.choice.name(),
+                match d.choice {
+                    Choice::Mix { mcmc_seconds } => format!(", MMLT {mcmc_seconds:.1} s more"),
+                    _ => String::new(),
+                },
+                d.predicted_mix,
+                d.predicted_omc,
+                rates.mcmc_exponent,
+            ),
+            None => String::new(),
+        };
         let how = format!(
-            "{:.2}% complex pixels{}, {}{unpiloted}{b}{weight}{pooled}",
+            "{:.2}% complex pixels{}, {}{checked}{unpiloted}{b}{weight}{pooled}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

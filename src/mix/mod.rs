@@ -461,7 +461,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     };
     let fixed_share = s.split.mcmc_share(c);
     let mut mmlt: Option<MmltRun> = None;
-    let choice = if omc.even.partial {
+    let mut choice = if omc.even.partial {
         // Interrupted: what exists is the OMC image.
         Choice::OmcOnly
     } else if !measured {
@@ -493,6 +493,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     // 4. The rest of the budget, as decided: OMC first, MMLT last, so that it takes up what is
     // left.
+    let omc_label = format!("mix 2/3: {}", method.name());
     if !omc.even.partial {
         let omc_time = match choice {
             Choice::OmcOnly => job.left(),
@@ -500,18 +501,18 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             Choice::McmcOnly => 0.0,
         };
         if omc_time > 0.0 {
-            let label = format!("mix 2/3: {}", method.name());
-            omc.render(&job, method, Budget::Seconds(omc_time), u64::MAX, &label);
+            omc.render(
+                &job,
+                method,
+                Budget::Seconds(omc_time),
+                u64::MAX,
+                &omc_label,
+            );
         }
     }
-    let omc_render = pool.apply(omc.whole(), rate);
-    if choice != Choice::McmcOnly {
-        // Above the switch the image is MMLT's own; the pilots served its b alone.
-        reasons.pooled = pool.describe(omc_render.seconds, rate);
-    }
-    // MMLT's b from the OMC passes, now all rendered, before MMLT goes on: with Kelemen's MIS
+    // MMLT's b from the OMC passes after the snapshot, before MMLT goes on: with Kelemen's MIS
     // its chains weigh their splats with it.
-    let b = match switch_b {
+    let mut b = match switch_b {
         Some(b) => Some(b),
         None if !mcmc_only && job.b_from_omc(method) => {
             let passes = omc.even.passes - snapshot_passes;
@@ -523,6 +524,46 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         }
         None => None,
     };
+    let pixels = job.w * job.h;
+    let min_depth = mmlt_settings.min_depth;
+    let mut set_b = |run: &mut MmltRun| {
+        if let Some((sums, passes, source)) = b.take()
+            && let Some(b) = normalisation(&sums, passes, min_depth, pixels)
+        {
+            run.set_normalisation(b, &source);
+        }
+    };
+    if let Some(run) = &mut mmlt {
+        set_b(run);
+    }
+    // The checkpoint: the measured mix decides the time left again, with OMC's share rendered
+    // (`pilot::checkpoint`); OMC takes its part of it first.
+    if let (Some(run), Choice::Mix { .. }, Some((_, first))) = (&mmlt, choice, &reasons.decision)
+        && measured
+        && !omc.even.partial
+    {
+        let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha, first.mcmc_exponent);
+        reasons.checkpoint = Some((d, rates));
+        let omc_time = match d.choice {
+            Choice::Mix { mcmc_seconds } => job.left() - mcmc_seconds,
+            _ => job.left(),
+        };
+        choice = d.choice;
+        if omc_time > 0.0 {
+            omc.render(
+                &job,
+                method,
+                Budget::Seconds(omc_time),
+                u64::MAX,
+                &omc_label,
+            );
+        }
+    }
+    let omc_render = pool.apply(omc.whole(), rate);
+    if choice != Choice::McmcOnly {
+        // Above the switch the image is MMLT's own; the pilots served its b alone.
+        reasons.pooled = pool.describe(omc_render.seconds, rate);
+    }
     let mut partial = omc_render.partial;
     let goes_on = matches!(choice, Choice::Mix { .. } | Choice::McmcOnly) && !partial;
     if goes_on {
@@ -534,12 +575,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             MmltRun::start(scene, target, &settings, 1)
         });
     }
-    if let (Some(run), Some((sums, passes, source))) = (&mut mmlt, b)
-        && let Some(b) = normalisation(&sums, passes, mmlt_settings.min_depth, job.w * job.h)
-    {
-        run.set_normalisation(b, &source);
-    }
     if let (Some(run), true) = (&mut mmlt, goes_on) {
+        set_b(run);
         run.run(Budget::Seconds(run.seconds() + job.left().max(0.0)));
     }
 
@@ -731,20 +768,35 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
             image.set_text(key, list.join(" "));
         }
     }
-    let Some((d, r)) = &reasons.decision else {
-        return;
-    };
-    image.set_float("mixmc.rate.omc_alone", r.omc_alone);
-    image.set_float("mixmc.rate.omc_out", r.omc_out);
-    for (k, c) in r.omc_in.0.iter().enumerate() {
-        image.set_float(&format!("mixmc.rate.omc_in.w{k}"), *c);
+    if let Some((d, r)) = &reasons.decision {
+        set_decision(image, "mixmc.", d, r);
     }
-    image.set_float("mixmc.rate.mcmc_out", r.mcmc_out);
-    image.set_float("mixmc.rate.mcmc_in", r.mcmc_in);
-    image.set_float("mixmc.rate.mcmc_in_halves", r.mcmc_in_halves);
-    image.set_float("mixmc.predicted.omc_alone", d.predicted_omc);
-    image.set_float("mixmc.predicted.mix", d.predicted_mix);
-    image.set_float("mixmc.predicted.omc_weight", d.omc_weight);
+    if let Some((d, r)) = &reasons.checkpoint {
+        set_decision(image, "mixmc.checkpoint.", d, r);
+        image.set_text("mixmc.checkpoint.decision", d.choice.name());
+        if let Choice::Mix { mcmc_seconds } = d.choice {
+            image.set_float("mixmc.checkpoint.mcmc_seconds", mcmc_seconds);
+        }
+    }
+}
+
+/// One decision's rates and predictions, under keys that begin with `prefix`.
+fn set_decision(image: &mut ExrImage, prefix: &str, d: &plan::Decision, r: &plan::Rates) {
+    let mut set = |key: &str, v: f64| image.set_float(&format!("{prefix}{key}"), v);
+    set("rate.omc_alone", r.omc_alone);
+    set("rate.omc_out", r.omc_out);
+    for (k, c) in r.omc_in.0.iter().enumerate() {
+        set(&format!("rate.omc_in.w{k}"), *c);
+    }
+    set("rate.mcmc_out", r.mcmc_out);
+    set("rate.mcmc_in", r.mcmc_in);
+    set("rate.mcmc_in_halves", r.mcmc_in_halves);
+    set("rate.mcmc_exponent", r.mcmc_exponent);
+    set("measured_seconds.omc", r.omc_seconds);
+    set("measured_seconds.mcmc", r.mcmc_seconds);
+    set("predicted.omc_alone", d.predicted_omc);
+    set("predicted.mix", d.predicted_mix);
+    set("predicted.omc_weight", d.omc_weight);
 }
 
 /// Our own AOV image as the layout the mask and compositor read (`Source::into_image` gives

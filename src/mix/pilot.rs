@@ -37,6 +37,14 @@ const K_MIN: f64 = 0.5;
 /// every candidate.
 const EXPONENT_PASSES: u64 = 8;
 
+/// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
+/// is taken as 1/t. On cornell-water at 30 s (9 at half way of a pilot of 1.5 s) the pace came
+/// out at 0.5, the job gave MMLT 1.6 s more instead of about half the time, and scored 39.9
+/// against 24–28; on the torus MMLT's first doubling from 32 per pixel fell as t^−0.41 and
+/// t^−0.49 in two runs, the later ones as t^−0.45 to t^−0.89 (docs/main-job.md, seventeenth
+/// round). At 120 s the pilot holds 90–120 per pixel.
+const PACE_ROUNDS: u64 = 32;
+
 /// How fast a pilot's error falls, from its error at two pass counts: `k` in error ∝ passes^−k,
 /// within [K_MIN, 1]. An unbiased estimator's error falls as 1/passes once its variance is
 /// finite and sampled; PT's LDR error on the room falls as passes^−0.6 over 40–1280 passes, as
@@ -260,13 +268,50 @@ pub(super) fn mcmc<'a>(
         importance: None,
     };
     let mut run = MmltRun::start(job.scene, target, &settings, 2);
-    run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
-    // Inside the mask, MMLT's whole error as OMC's render shows it, where that is more than its
-    // halves show: the decision at 1/t from the halves alone mixed on cornell-torus at 120 s,
-    // and lost (docs/main-job.md, eleventh round).
-    let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, &run, alpha);
+    let pilot = MCMC_PILOT * job.s.seconds;
+    let end = run.seconds() + pilot;
+    // MMLT's pace, from its error inside the mask as its halves show it half way and at the end.
+    let inside = |run: &MmltRun| (run.rounds(), e.mcmc(omc, run, alpha)[1]);
+    run.run(Budget::Seconds(end - 0.5 * pilot));
+    let first = inside(&run);
+    run.run(Budget::Seconds(end));
+    let pace = if first.0 < PACE_ROUNDS {
+        1.0
+    } else {
+        exponent(first, inside(&run))
+    };
+    let rates = rates(omc, e, &run, alpha, pace);
+    let d = decide(&rates, job.left());
+    (run, d, rates)
+}
+
+/// The decision again once OMC has rendered its share of a mix, before MMLT goes on: both
+/// renders' rates measured as they now stand, the time left split by the same criterion
+/// (`decide`), OMC taking its part first. At the pilot OMC's render was a snapshot, whose own
+/// noise hid the error MMLT's two halves share; against OMC's whole share it shows (on
+/// cornell-torus at 120 s MMLT's error inside the mask was twice what its halves showed, and
+/// the mix lost to OMC alone: docs/main-job.md, seventeenth round). MMLT's rate is still
+/// projected at the pace its pilot measured (`pace`, as `exponent`).
+pub(super) fn checkpoint(
+    job: &Job,
+    omc: &Halved,
+    run: &MmltRun,
+    alpha: &[f32],
+    pace: f64,
+) -> (Decision, Rates) {
+    let e = OmcErrors::measure(omc, alpha);
+    let rates = rates(omc, &e, run, alpha, pace);
+    (decide(&rates, job.left()), rates)
+}
+
+/// Both renders' rates (error × seconds) as they stand. Inside the mask, MMLT's whole error as
+/// OMC's render shows it, where that is more than its halves show: the decision at 1/t from
+/// the halves alone mixed on cornell-torus at 120 s, and lost (docs/main-job.md, eleventh
+/// round).
+fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -> Rates {
+    let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, run, alpha);
     let (u, v) = (omc.even.seconds, run.result().chain_seconds);
-    let rates = Rates {
+    Rates {
         omc_alone: e.alone * u,
         omc_out: e.out * u,
         omc_in: Quadratic(e.inside.0.map(|c| c * u)),
@@ -275,9 +320,8 @@ pub(super) fn mcmc<'a>(
         mcmc_in_halves: mcmc_in * v,
         omc_seconds: u,
         mcmc_seconds: v,
-    };
-    let d = decide(&rates, job.left());
-    (run, d, rates)
+        mcmc_exponent: pace,
+    }
 }
 
 #[cfg(test)]

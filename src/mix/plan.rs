@@ -44,6 +44,9 @@ pub struct Reasons {
     /// MMLT's pilot's rates and what they decided (the measured split, below the switch, with
     /// a mask that marks pixels).
     pub decision: Option<(Decision, Rates)>,
+    /// The same again once OMC had rendered its share of a mix, which decided the time left
+    /// (`pilot::checkpoint`).
+    pub checkpoint: Option<(Decision, Rates)>,
     /// The weight of OMC's indirect light inside the mask in the composite; MMLT's is 1 minus
     /// it (0: eq. (2)).
     pub omc_weight: f64,
@@ -139,16 +142,34 @@ pub struct Rates {
     /// Seconds OMC and MMLT's chains have rendered so far.
     pub omc_seconds: f64,
     pub mcmc_seconds: f64,
+    /// `k` in MMLT's error ∝ t^−k, as its pilot measured it (1: 1/t). Inside the mask of
+    /// cornell-torus MMLT's LDR error fell as t^−0.4 to t^−0.9 per doubling of its mutations,
+    /// ×0.11 from 32 to 1024 per pixel where 1/t gives ×0.03, and a mix predicted at 1/t lost
+    /// to OMC alone (docs/main-job.md, seventeenth round).
+    pub mcmc_exponent: f64,
 }
 
 impl Rates {
     /// The predicted image error after `u` seconds of OMC and `v` of MMLT, with the best OMC
     /// weight inside the mask, and that weight.
     pub fn mix_error(&self, u: f64, v: f64) -> (f64, f64) {
-        let w = omc_weight(self.omc_in, u, self.mcmc_in, v);
+        let pace = self.mcmc_pace(v);
+        let (mcmc_in, mcmc_out) = (self.mcmc_in * pace, self.mcmc_out * pace);
+        let w = omc_weight(self.omc_in, u, mcmc_in, v);
         let err = (self.omc_out + self.omc_in.at(w)) / u
-            + (self.mcmc_out + (1.0 - w) * (1.0 - w) * self.mcmc_in) / v;
+            + (mcmc_out + (1.0 - w) * (1.0 - w) * mcmc_in) / v;
         (err, w)
+    }
+
+    /// What MMLT's rates become at `v` seconds, carried from its measured seconds at its pace:
+    /// error `e·(v₀/v)^k` is rate `e·v₀·(v/v₀)^(1−k)`.
+    fn mcmc_pace(&self, v: f64) -> f64 {
+        let k = self.mcmc_exponent;
+        if self.mcmc_seconds > 0.0 && v > 0.0 && k.is_finite() {
+            (v / self.mcmc_seconds).powf(1.0 - k)
+        } else {
+            1.0
+        }
     }
 }
 
@@ -265,6 +286,7 @@ mod tests {
             mcmc_in_halves: mcmc_in,
             omc_seconds: 2.0,
             mcmc_seconds: 1.0,
+            mcmc_exponent: 1.0,
         }
     }
 
@@ -321,6 +343,33 @@ mod tests {
         let mut r = rates(10.0, 9.0, 0.0, 1.0, 50.0);
         r.mcmc_out = 20.0;
         assert_eq!(decide(&r, 27.0).choice, Choice::OmcOnly);
+    }
+
+    #[test]
+    fn mmlt_is_projected_at_its_measured_pace() {
+        // MMLT's error alone (OMC's weight 0 inside the mask, OMC's error outside it nil) over
+        // its measured second: at 4 s a quarter of it at 1/t, half at t^−0.5.
+        let mut r = rates(1.0, 0.0, 0.0, 1e12, 4.0);
+        for (k, fall) in [(1.0, 4.0), (0.5, 2.0)] {
+            r.mcmc_exponent = k;
+            let e = |v: f64| r.mix_error(1.0, v).0;
+            assert!(
+                (e(1.0) / e(4.0) - fall).abs() < 1e-6,
+                "{k}: {}",
+                e(1.0) / e(4.0)
+            );
+        }
+        // A slower MMLT is given less of the time, and more is predicted of it.
+        let mut r = rates(20.0, 10.0, 0.0, 10.0, 1.5);
+        let more = |d: Decision| match d.choice {
+            Choice::Mix { mcmc_seconds } => mcmc_seconds,
+            _ => 0.0,
+        };
+        let fast = decide(&r, 40.0);
+        r.mcmc_exponent = 0.5;
+        let slow = decide(&r, 40.0);
+        assert!(more(slow) < 0.25 * more(fast), "{fast:?} {slow:?}");
+        assert!(slow.predicted_mix > fast.predicted_mix);
     }
 
     #[test]

@@ -495,6 +495,11 @@ impl<'a> MmltRun<'a> {
         self.seconds
     }
 
+    /// Mutations per pixel so far.
+    pub fn rounds(&self) -> u64 {
+        self.rounds
+    }
+
     /// Each rendered depth's b_d (from `min_depth` up: the film mean of the target, g·Y(α·I_d)),
     /// estimated by the caller, and what from.
     /// The chains' moves do not depend on it: without Kelemen's MIS it only scales the image.

@@ -494,21 +494,15 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // 4. The rest of the budget, as decided: OMC first, MMLT last, so that it takes up what is
     // left.
     let omc_label = format!("mix 2/3: {}", method.name());
-    if !omc.even.partial {
-        let omc_time = match choice {
-            Choice::OmcOnly => job.left(),
-            Choice::Mix { mcmc_seconds } => job.left() - mcmc_seconds,
-            Choice::McmcOnly => 0.0,
-        };
-        if omc_time > 0.0 {
-            omc.render(
-                &job,
-                method,
-                Budget::Seconds(omc_time),
-                u64::MAX,
-                &omc_label,
-            );
+    let omc_share = |omc: &mut Halved, choice: Choice| {
+        let seconds = choice.omc_seconds(job.left());
+        if seconds > 0.0 {
+            let budget = Budget::Seconds(seconds);
+            omc.render(&job, method, budget, u64::MAX, &omc_label);
         }
+    };
+    if !omc.even.partial {
+        omc_share(&mut omc, choice);
     }
     // MMLT's b from the OMC passes after the snapshot, before MMLT goes on: with Kelemen's MIS
     // its chains weigh their splats with it.
@@ -544,20 +538,8 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     {
         let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha, first.mcmc_exponent);
         reasons.checkpoint = Some((d, rates));
-        let omc_time = match d.choice {
-            Choice::Mix { mcmc_seconds } => job.left() - mcmc_seconds,
-            _ => job.left(),
-        };
         choice = d.choice;
-        if omc_time > 0.0 {
-            omc.render(
-                &job,
-                method,
-                Budget::Seconds(omc_time),
-                u64::MAX,
-                &omc_label,
-            );
-        }
+        omc_share(&mut omc, choice);
     }
     let omc_render = pool.apply(omc.whole(), rate);
     if choice != Choice::McmcOnly {

@@ -78,6 +78,15 @@ pub enum Choice {
 }
 
 impl Choice {
+    /// OMC's seconds of the `left` of the budget: all of it, all but MMLT's, or none.
+    pub fn omc_seconds(self, left: f64) -> f64 {
+        match self {
+            Choice::OmcOnly => left,
+            Choice::Mix { mcmc_seconds } => left - mcmc_seconds,
+            Choice::McmcOnly => 0.0,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Choice::OmcOnly => "omc-only",

@@ -13,8 +13,10 @@
 //!    alone; OMC alone without the pilot where the mask holds too little of OMC's error for
 //!    the pilot to repay itself (`plan::worth_a_pilot`);
 //! 4. the rest of the budget, as decided: OMC's passes, then MMLT's normalisation from them
-//!    (above the switch, the snapshot's and the losing pilots' that hold BPT's strategies),
-//!    then MMLT's chains, which weigh their large steps with Kelemen's MIS once b_d is known;
+//!    (above the switch, the snapshot's and the losing pilots' that hold BPT's strategies);
+//!    where the pilot chose the mix, a checkpoint that decides the time left again from both
+//!    renders as they then stand (`pilot::checkpoint`), OMC taking its part first; then MMLT's
+//!    chains, which weigh their large steps with Kelemen's MIS once b_d is known;
 //! 5. the weights of OMC's indirect light inside the mask and outside it, where both methods
 //!    have rendered it (`estimate::weight_of_omc`);
 //! 6. the composite: eq. (2) with those weights.

@@ -188,22 +188,28 @@ fn main() -> ExitCode {
         } else {
             String::new()
         };
-        // The pilot chose the mix; the checkpoint, with OMC's share rendered, decided the rest.
-        let checked = match &r.checkpoint {
-            Some((d, rates)) => format!(
-                " (checkpoint: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
-                 error ∝ t^-{:.2})",
-                d.choice.name(),
-                match d.choice {
-                    Choice::Mix { mcmc_seconds } => format!(", MMLT {mcmc_seconds:.1} s more"),
-                    _ => String::new(),
-                },
-                d.predicted_mix,
-                d.predicted_omc,
-                rates.mcmc_exponent,
-            ),
-            None => String::new(),
-        };
+        // The pilot chose the mix; the checkpoint, with OMC's share rendered, decided the rest,
+        // and the pace check again part way into MMLT's.
+        let checked: String = [("checkpoint", &r.checkpoint), ("pace check", &r.pace_check)]
+            .into_iter()
+            .filter_map(|(name, decided)| {
+                let (d, rates) = decided.as_ref()?;
+                Some(format!(
+                    " ({name}: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
+                     error ∝ t^-{:.2})",
+                    d.choice.name(),
+                    match d.choice {
+                        Choice::Mix { mcmc_seconds } => {
+                            format!(", MMLT {mcmc_seconds:.1} s more")
+                        }
+                        _ => String::new(),
+                    },
+                    d.predicted_mix,
+                    d.predicted_omc,
+                    rates.mcmc_exponent,
+                ))
+            })
+            .collect();
         let how = format!(
             "{:.2}% complex pixels{}, {}{checked}{unpiloted}{b}{weight}{pooled}",
             100.0 * m.complex_fraction,

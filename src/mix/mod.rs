@@ -16,7 +16,9 @@
 //!    (above the switch, the snapshot's and the losing pilots' that hold BPT's strategies);
 //!    where the pilot chose the mix, a checkpoint that decides the time left again from both
 //!    renders as they then stand (`pilot::checkpoint`), OMC taking its part first; then MMLT's
-//!    chains, which weigh their large steps with Kelemen's MIS once b_d is known;
+//!    chains, which weigh their large steps with Kelemen's MIS once b_d is known, and, a third
+//!    of the way into a share long enough, a pace check that measures MMLT's pace over its own
+//!    render and decides the time left once more (`pilot::pace_check`);
 //! 5. the weights of OMC's indirect light inside the mask and outside it, where both methods
 //!    have rendered it (`estimate::weight_of_omc`);
 //! 6. the composite: eq. (2) with those weights.
@@ -543,6 +545,21 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         choice = d.choice;
         omc_share(&mut omc, choice);
     }
+    // The pace check: part way into MMLT's share, its pace measured over its own render decides
+    // the time left again (`pilot::pace_check`); OMC takes its part of it first.
+    let checked = reasons.checkpoint.map(|(_, r)| r);
+    if let (Some(run), Choice::Mix { mcmc_seconds }, Some(at)) = (&mut mmlt, choice, checked)
+        && let Some(until) = pilot::pace_check_at(run, mcmc_seconds)
+        && !omc.even.partial
+    {
+        run.run(Budget::Seconds(until));
+        if !run.result().partial {
+            let (d, rates) = pilot::pace_check(&job, &omc, run, alpha, &at);
+            reasons.pace_check = Some((d, rates));
+            choice = d.choice;
+            omc_share(&mut omc, choice);
+        }
+    }
     let omc_render = pool.apply(omc.whole(), rate);
     if choice != Choice::McmcOnly {
         // Above the switch the image is MMLT's own; the pilots served its b alone.
@@ -755,11 +772,16 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     if let Some((d, r)) = &reasons.decision {
         set_decision(image, "mixmc.", d, r);
     }
-    if let Some((d, r)) = &reasons.checkpoint {
-        set_decision(image, "mixmc.checkpoint.", d, r);
-        image.set_text("mixmc.checkpoint.decision", d.choice.name());
-        if let Choice::Mix { mcmc_seconds } = d.choice {
-            image.set_float("mixmc.checkpoint.mcmc_seconds", mcmc_seconds);
+    for (prefix, decided) in [
+        ("mixmc.checkpoint.", &reasons.checkpoint),
+        ("mixmc.pace_check.", &reasons.pace_check),
+    ] {
+        if let Some((d, r)) = decided {
+            set_decision(image, prefix, d, r);
+            image.set_text(&format!("{prefix}decision"), d.choice.name());
+            if let Choice::Mix { mcmc_seconds } = d.choice {
+                image.set_float(&format!("{prefix}mcmc_seconds"), mcmc_seconds);
+            }
         }
     }
 }

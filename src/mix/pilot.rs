@@ -3,7 +3,7 @@
 
 use super::estimate::missing_light;
 use super::halved::{Halved, OmcErrors, mean};
-use super::plan::{Candidate, Decision, Quadratic, Rates, decide};
+use super::plan::{Candidate, Choice, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
 use super::{Job, MCMC_PILOT, serves_b};
 use crate::integrators::Method;
@@ -304,6 +304,68 @@ pub(super) fn checkpoint(
     (decide(&rates, job.left()), rates)
 }
 
+/// The share of MMLT's time after the checkpoint that it renders before its pace is checked.
+const PACE_CHECK_SHARE: f64 = 1.0 / 3.0;
+/// The slowest pace the check may measure: error ∝ t^−MCMC_K_MIN. Below the pilot's K_MIN,
+/// as MMLT's chains can stop finding what they have not found yet: on `caustic` at 120 s its
+/// error inside a mask that held the floor fell as about t^−0.4 from 6 to 54 s.
+const MCMC_K_MIN: f64 = 0.2;
+
+/// Where MMLT's pace is checked after the checkpoint, as the run's seconds: once it has
+/// rendered `PACE_CHECK_SHARE` of the `more` seconds the checkpoint gave it, where that at
+/// least doubles its chains' seconds (a pace measured over less is mostly noise) and its
+/// pilot's rounds were enough for a pace (`PACE_ROUNDS`). None: no check.
+pub(super) fn pace_check_at(run: &MmltRun, more: f64) -> Option<f64> {
+    let first = PACE_CHECK_SHARE * more;
+    let chains = run.result().chain_seconds;
+    (run.rounds() >= PACE_ROUNDS && chains > 0.0 && first >= chains).then(|| run.seconds() + first)
+}
+
+/// The decision again, part way into MMLT's share: MMLT's pace measured over its own render
+/// so far, from its whole error inside the mask at the checkpoint (`at`) and now, against the
+/// same OMC render; the time left split by `decide` at that pace. The pilot's pace comes from
+/// its halves over a few seconds, where MMLT's error falls as 1/t; over its whole share on
+/// `caustic` (a mask that held the floor) it fell as t^−0.4, the job predicted the mix at
+/// 0.24 against OMC alone's 0.37, and scored 1.22× BPT alone (docs/main-job.md, nineteenth
+/// round). Where the error cannot be measured at either point the pace stays the pilot's.
+pub(super) fn pace_check(
+    job: &Job,
+    omc: &Halved,
+    run: &MmltRun,
+    alpha: &[f32],
+    at: &Rates,
+) -> (Decision, Rates) {
+    let e = OmcErrors::measure(omc, alpha);
+    let now = rates(omc, &e, run, alpha, at.mcmc_exponent);
+    let rates = Rates {
+        mcmc_exponent: measured_pace(at, &now),
+        ..now
+    };
+    let mut d = decide(&rates, job.left());
+    // MMLT's render so far is paid for, and the composite weighs it by its measured error
+    // inside the mask and outside it, which `decide` does not model outside (it takes MMLT's
+    // ε·I there at eq. (2)'s weight): on `caustic` at 120 s that cost 0.105 of a predicted
+    // 0.458, the check chose OMC alone against 0.452, dropped MMLT's 13 s and scored 0.64
+    // where the job had scored 0.59 with it (docs/main-job.md, nineteenth round).
+    d.choice = Choice::Mix {
+        mcmc_seconds: d.mix_seconds,
+    };
+    (d, rates)
+}
+
+/// `k` in MMLT's error inside the mask ∝ t^−k, from its rates at two points, within
+/// [MCMC_K_MIN, 1]; the earlier point's own where the two do not give one.
+fn measured_pace(at: &Rates, now: &Rates) -> f64 {
+    let error = |r: &Rates| r.mcmc_in / r.mcmc_seconds;
+    let span = now.mcmc_seconds / at.mcmc_seconds;
+    let k = (error(at) / error(now)).ln() / span.ln();
+    if k.is_finite() && span > 1.0 {
+        k.clamp(MCMC_K_MIN, 1.0)
+    } else {
+        at.mcmc_exponent
+    }
+}
+
 /// Both renders' rates (error × seconds) as they stand. Inside the mask, MMLT's whole error as
 /// OMC's render shows it, where that is more than its halves show: the decision at 1/t from
 /// the halves alone mixed on cornell-torus at 120 s, and lost (docs/main-job.md, eleventh
@@ -340,6 +402,41 @@ mod tests {
         // Without BPT's view each keeps its own.
         let alone = [(Method::Pt, 0.6), (Method::Lt, 0.74)];
         assert_eq!(shared_exponents(&alone), [0.6, 0.74]);
+    }
+
+    #[test]
+    fn mmlts_pace_is_the_slope_of_its_error_inside_the_mask_between_two_points() {
+        let at = |seconds: f64, error: f64| Rates {
+            omc_alone: 1.0,
+            omc_out: 1.0,
+            omc_in: Quadratic::default(),
+            mcmc_out: 0.0,
+            mcmc_in: error * seconds,
+            mcmc_in_halves: error * seconds,
+            omc_seconds: 1.0,
+            mcmc_seconds: seconds,
+            mcmc_exponent: 0.8,
+        };
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // 6 s to 24 s: error ÷4 is 1/t, ÷2 is t^−0.5; the caustic's t^−0.4 stays.
+        assert!(close(measured_pace(&at(6.0, 2.0), &at(24.0, 0.5)), 1.0));
+        assert!(close(measured_pace(&at(6.0, 2.0), &at(24.0, 1.0)), 0.5));
+        let e = 2.0 * 4f64.powf(-0.4);
+        assert!(close(measured_pace(&at(6.0, 2.0), &at(24.0, e)), 0.4));
+        // Bounded on both sides: faster than 1/t is noise; an error that grew is as slow as
+        // any measured.
+        assert!(close(measured_pace(&at(6.0, 2.0), &at(24.0, 0.1)), 1.0));
+        assert!(close(
+            measured_pace(&at(6.0, 2.0), &at(24.0, 3.0)),
+            MCMC_K_MIN
+        ));
+        // No time between the points, or an error that is not a number: the earlier pace.
+        assert!(close(measured_pace(&at(6.0, 2.0), &at(6.0, 1.0)), 0.8));
+        assert!(close(
+            measured_pace(&at(6.0, 2.0), &at(24.0, f64::NAN)),
+            0.8
+        ));
+        assert!(close(measured_pace(&at(6.0, 0.0), &at(24.0, 1.0)), 0.8));
     }
 
     #[test]

@@ -47,6 +47,9 @@ pub struct Reasons {
     /// The same again once OMC had rendered its share of a mix, which decided the time left
     /// (`pilot::checkpoint`).
     pub checkpoint: Option<(Decision, Rates)>,
+    /// The same again part way into MMLT's share, at MMLT's pace as measured since the
+    /// checkpoint (`pilot::pace_check`).
+    pub pace_check: Option<(Decision, Rates)>,
     /// The weight of OMC's indirect light inside the mask in the composite; MMLT's is 1 minus
     /// it (0: eq. (2)).
     pub omc_weight: f64,
@@ -189,6 +192,8 @@ pub struct Decision {
     pub predicted_omc: f64,
     /// The mix's, at its best split.
     pub predicted_mix: f64,
+    /// MMLT's further seconds at that split (whatever the choice).
+    pub mix_seconds: f64,
     /// The OMC weight inside the mask that the prediction assumed.
     pub omc_weight: f64,
 }
@@ -257,6 +262,7 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
         choice,
         predicted_omc,
         predicted_mix,
+        mix_seconds: more,
         omc_weight,
     }
 }

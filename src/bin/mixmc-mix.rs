@@ -188,28 +188,33 @@ fn main() -> ExitCode {
         } else {
             String::new()
         };
-        // The pilot chose the mix; the checkpoint, with OMC's share rendered, decided the rest,
-        // and the pace check again part way into MMLT's.
-        let checked: String = [("checkpoint", &r.checkpoint), ("pace check", &r.pace_check)]
-            .into_iter()
-            .filter_map(|(name, decided)| {
-                let (d, rates) = decided.as_ref()?;
-                Some(format!(
-                    " ({name}: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
+        // MMLT's pilot decided; the checkpoint, with OMC's share rendered, decided the rest,
+        // and the pace check again part way into MMLT's. "mix, MMLT 0.0 s more": OMC renders
+        // the rest, and MMLT's render so far is weighed in.
+        let checked: String = [
+            ("pilot", &r.decision),
+            ("checkpoint", &r.checkpoint),
+            ("pace check", &r.pace_check),
+        ]
+        .into_iter()
+        .filter_map(|(name, decided)| {
+            let (d, rates) = decided.as_ref()?;
+            Some(format!(
+                " ({name}: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
                      error ∝ t^-{:.2})",
-                    d.choice.name(),
-                    match d.choice {
-                        Choice::Mix { mcmc_seconds } => {
-                            format!(", MMLT {mcmc_seconds:.1} s more")
-                        }
-                        _ => String::new(),
-                    },
-                    d.predicted_mix,
-                    d.predicted_omc,
-                    rates.mcmc_exponent,
-                ))
-            })
-            .collect();
+                d.choice.name(),
+                match d.choice {
+                    Choice::Mix { mcmc_seconds } => {
+                        format!(", MMLT {mcmc_seconds:.1} s more")
+                    }
+                    _ => String::new(),
+                },
+                d.predicted_mix,
+                d.predicted_omc,
+                rates.mcmc_exponent,
+            ))
+        })
+        .collect();
         let how = format!(
             "{:.2}% complex pixels{}, {}{checked}{unpiloted}{b}{weight}{pooled}",
             100.0 * m.complex_fraction,

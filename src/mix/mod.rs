@@ -8,13 +8,15 @@
 //! 2. the snapshot the mask is built from (the paper builds it from an early snapshot, 64–128
 //!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
 //!    that is already above the switch ends the snapshot there;
-//! 3. the plan: a pilot of MMLT on α·I (`pilot::mcmc`) and the decision (`plan`): OMC alone, the
-//!    mix at the split that minimises the predicted error, or, above the mask's switch, MCMC
-//!    alone; OMC alone without the pilot where the mask holds too little of OMC's error for
-//!    the pilot to repay itself (`plan::worth_a_pilot`);
+//! 3. the plan: a pilot of MMLT on α·I (`pilot::mcmc`) and the decision (`plan`): the mix at
+//!    the split that minimises the predicted error, OMC alone, or, above the mask's switch,
+//!    MCMC alone; once MMLT's pilot has rendered, "OMC alone" gives OMC the rest of the time
+//!    and keeps the pilot's render for the composite to weigh (`pilot::kept`); OMC alone
+//!    without the pilot where the mask holds too little of OMC's error for the pilot to repay
+//!    itself (`plan::worth_a_pilot`);
 //! 4. the rest of the budget, as decided: OMC's passes, then MMLT's normalisation from them
 //!    (above the switch, the snapshot's and the losing pilots' that hold BPT's strategies);
-//!    where the pilot chose the mix, a checkpoint that decides the time left again from both
+//!    where the pilot gave MMLT more time, a checkpoint that decides the time left again from both
 //!    renders as they then stand (`pilot::checkpoint`), OMC taking its part first; then MMLT's
 //!    chains, which weigh their large steps with Kelemen's MIS once b_d is known, and, a third
 //!    of the way into a share long enough, a pace check that measures MMLT's pace over its own
@@ -535,8 +537,11 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         set_b(run);
     }
     // The checkpoint: the measured mix decides the time left again, with OMC's share rendered
-    // (`pilot::checkpoint`); OMC takes its part of it first.
-    if let (Some(run), Choice::Mix { .. }, Some((_, first))) = (&mmlt, choice, &reasons.decision)
+    // (`pilot::checkpoint`); OMC takes its part of it first. Where MMLT gets no more time,
+    // OMC has rendered all of it and nothing is left to decide.
+    if let (Some(run), Choice::Mix { mcmc_seconds }, Some((_, first))) =
+        (&mmlt, choice, &reasons.decision)
+        && mcmc_seconds > 0.0
         && measured
         && !omc.even.partial
     {
@@ -771,6 +776,10 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     }
     if let Some((d, r)) = &reasons.decision {
         set_decision(image, "mixmc.", d, r);
+        // The pilot never ends MMLT's render (`pilot::kept`): 0 where OMC rendered the rest.
+        if let Choice::Mix { mcmc_seconds } = d.choice {
+            image.set_float("mixmc.pilot_mcmc_seconds", mcmc_seconds);
+        }
     }
     for (prefix, decided) in [
         ("mixmc.checkpoint.", &reasons.checkpoint),

@@ -281,8 +281,22 @@ pub(super) fn mcmc<'a>(
         exponent(first, inside(&run))
     };
     let rates = rates(omc, e, &run, alpha, pace);
-    let d = decide(&rates, job.left());
+    let d = kept(decide(&rates, job.left()));
     (run, d, rates)
+}
+
+/// The decision, with MMLT's render so far kept where it gives MMLT no more time: OMC renders
+/// the rest, and the composite weighs MMLT's render by its error as measured at the end
+/// (`Halved::weights`), which tends to OMC's side where MMLT is the worse of the two. `decide`
+/// weighs OMC alone against a mix that pays for MMLT's ε·I outside the mask at eq. (2)'s
+/// weight and gives MMLT's render no weight where it stops, so OMC alone threw away a render
+/// that was already paid for: on cornell-torus at 120 s the pilot's 5% of the budget
+/// (docs/main-job.md, twentieth round).
+fn kept(mut d: Decision) -> Decision {
+    if d.choice == Choice::OmcOnly {
+        d.choice = Choice::Mix { mcmc_seconds: 0.0 };
+    }
+    d
 }
 
 /// The decision again once OMC has rendered its share of a mix, before MMLT goes on: both
@@ -301,7 +315,7 @@ pub(super) fn checkpoint(
 ) -> (Decision, Rates) {
     let e = OmcErrors::measure(omc, alpha);
     let rates = rates(omc, &e, run, alpha, pace);
-    (decide(&rates, job.left()), rates)
+    (kept(decide(&rates, job.left())), rates)
 }
 
 /// The share of MMLT's time after the checkpoint that it renders before its pace is checked.
@@ -317,7 +331,7 @@ const MCMC_K_MIN: f64 = 0.2;
 /// pilot's rounds were enough for a pace (`PACE_ROUNDS`). None: no check.
 pub(super) fn pace_check_at(run: &MmltRun, more: f64) -> Option<f64> {
     let first = PACE_CHECK_SHARE * more;
-    let chains = run.result().chain_seconds;
+    let chains = run.chain_seconds();
     (run.rounds() >= PACE_ROUNDS && chains > 0.0 && first >= chains).then(|| run.seconds() + first)
 }
 
@@ -372,7 +386,7 @@ fn measured_pace(at: &Rates, now: &Rates) -> f64 {
 /// round).
 fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -> Rates {
     let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, run, alpha);
-    let (u, v) = (omc.even.seconds, run.result().chain_seconds);
+    let (u, v) = (omc.even.seconds, run.chain_seconds());
     Rates {
         omc_alone: e.alone * u,
         omc_out: e.out * u,
@@ -402,6 +416,21 @@ mod tests {
         // Without BPT's view each keeps its own.
         let alone = [(Method::Pt, 0.6), (Method::Lt, 0.74)];
         assert_eq!(shared_exponents(&alone), [0.6, 0.74]);
+    }
+
+    #[test]
+    fn where_mmlt_gets_no_more_time_its_render_is_kept_and_a_split_stands() {
+        let d = |choice| Decision {
+            choice,
+            predicted_omc: 1.0,
+            predicted_mix: 2.0,
+            mix_seconds: 3.0,
+            omc_weight: 0.5,
+        };
+        let none_more = Choice::Mix { mcmc_seconds: 0.0 };
+        assert_eq!(kept(d(Choice::OmcOnly)), d(none_more));
+        let split = Choice::Mix { mcmc_seconds: 3.0 };
+        assert_eq!(kept(d(split)), d(split));
     }
 
     #[test]

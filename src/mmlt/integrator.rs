@@ -495,6 +495,11 @@ impl<'a> MmltRun<'a> {
         self.seconds
     }
 
+    /// The chains' seconds so far, without building the image (`result` does).
+    pub fn chain_seconds(&self) -> f64 {
+        self.chain_seconds
+    }
+
     /// Mutations per pixel so far.
     pub fn rounds(&self) -> u64 {
         self.rounds

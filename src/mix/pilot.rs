@@ -286,12 +286,11 @@ pub(super) fn mcmc<'a>(
 }
 
 /// The decision, with MMLT's render so far kept where it gives MMLT no more time: OMC renders
-/// the rest, and the composite weighs MMLT's render by its error as measured at the end
-/// (`Halved::weights`), which tends to OMC's side where MMLT is the worse of the two. `decide`
-/// weighs OMC alone against a mix that pays for MMLT's ε·I outside the mask at eq. (2)'s
-/// weight and gives MMLT's render no weight where it stops, so OMC alone threw away a render
-/// that was already paid for: on cornell-torus at 120 s the pilot's 5% of the budget
-/// (docs/main-job.md, twentieth round).
+/// the rest, and the composite weighs MMLT's render in by its error as measured at the end
+/// (`Halved::weights`), which leans to OMC where MMLT is the worse of the two. `decide` asks
+/// whether more of MMLT pays; its "OMC alone" threw away a render already paid for, which the
+/// weights still draw on: on cornell-torus at 120 s the pilot's 6% of the budget took 8–10%
+/// off the same OMC render's error (docs/main-job.md, twentieth round).
 fn kept(mut d: Decision) -> Decision {
     if d.choice == Choice::OmcOnly {
         d.choice = Choice::Mix { mcmc_seconds: 0.0 };

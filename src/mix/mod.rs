@@ -558,7 +558,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         && !omc.even.partial
     {
         run.run(Budget::Seconds(until));
-        if !run.result().partial {
+        if !run.partial() {
             let (d, rates) = pilot::pace_check(&job, &omc, run, alpha, &at);
             reasons.pace_check = Some((d, rates));
             choice = d.choice;

@@ -500,6 +500,11 @@ impl<'a> MmltRun<'a> {
         self.chain_seconds
     }
 
+    /// Whether an interrupt stopped a round short, without building the image.
+    pub fn partial(&self) -> bool {
+        self.partial
+    }
+
     /// Mutations per pixel so far.
     pub fn rounds(&self) -> u64 {
         self.rounds

@@ -243,6 +243,19 @@ fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_pap
 fn checked_again_where_the_pilot_mixed(fin: &ExrImage) -> bool {
     let f = |k: &str| fin.float_attr(k).unwrap_or(f64::NAN);
     let checkpoint = fin.text_attr("mixmc.checkpoint.decision");
+    // Below the switch the pilot or the checkpoint may have found MCMC alone the better of the
+    // three: MMLT rendered every light path from there on, and nothing was left to check.
+    if fin.text_attr("mixmc.decision").as_deref() == Some("mcmc-only") {
+        let by = if checkpoint.is_some() {
+            "checkpoint."
+        } else {
+            ""
+        };
+        let g = |k: &str| f(&format!("mixmc.{by}predicted.{k}"));
+        let (alone, others) = (g("mcmc_alone"), g("mix").min(g("omc_alone")));
+        assert!(alone < others, "MCMC alone {alone} against {others}");
+        return false;
+    }
     // Where the pilot saw no gain in more of MMLT, OMC rendered the rest and MMLT's pilot was
     // kept, weighed in by the composite: nothing was left for a checkpoint.
     let more = f("mixmc.pilot_mcmc_seconds");

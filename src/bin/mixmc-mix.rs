@@ -200,8 +200,8 @@ fn main() -> ExitCode {
         .filter_map(|(name, decided)| {
             let (d, rates) = decided.as_ref()?;
             Some(format!(
-                " ({name}: {}{}, predicted mix {:.3} against OMC alone's {:.3}, MMLT's \
-                     error ∝ t^-{:.2})",
+                " ({name}: {}{}, predicted mix {:.3} against OMC alone's {:.3} and MCMC \
+                     alone's {:.3}, MMLT's error ∝ t^-{:.2})",
                 d.choice.name(),
                 match d.choice {
                     Choice::Mix { mcmc_seconds } => {
@@ -211,6 +211,7 @@ fn main() -> ExitCode {
                 },
                 d.predicted_mix,
                 d.predicted_omc,
+                d.predicted_mcmc,
                 rates.mcmc_exponent,
             ))
         })

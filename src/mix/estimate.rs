@@ -11,7 +11,7 @@
 //! against its error at the full budget, where the same spike is spread over many samples.
 
 use crate::film::Film;
-use crate::math::Rgb;
+use crate::math::{Rgb, luminance};
 use crate::metrics::{gamma_slope, ldr};
 use rayon::prelude::*;
 
@@ -246,6 +246,38 @@ pub fn film_means(film: &Film, passes: u64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
     (mean(&film.direct), mean(&film.indirect))
 }
 
+/// How many times the mix's MMLT error rate MCMC alone's would be, outside the mask and inside
+/// it, from OMC's film and the mask. A Metropolis estimate of a pixel of value `f` has a
+/// variance of about `b·f` per mutation, as the pixel draws `f/b` of the mutations: where MMLT's
+/// target grows from α·I (sum `b_α`) to every light path, D + I (sum `b`), a region's variance
+/// grows by `(b/b_α)·Σ Y(D + I)/Σ α·Y(I)` over it. The LDR slope at a pixel is the same for
+/// both, as both images hold D + I. First order only, and measured (docs/main-job.md,
+/// twenty-first round): on `stress` at 30 s it gave MCMC alone 33 where two MMLT renders'
+/// difference gives 31; where the mask holds little of the light it overstates it (the torus at
+/// 120 s 22 where MMLT alone has about 6, the caustic at 30 s 10 for about 3). A region without
+/// light gives 0; one whose light the α·I target does not hold, infinity.
+pub fn mcmc_alone_factors(film: &Film, alpha: &[f32]) -> [f64; 2] {
+    // Per side of the mask (outside, inside): Σ Y(D + I) and Σ α·Y(I).
+    let mut sums = [[0.0f64; 2]; 2];
+    for ((d, i), a) in film.direct.iter().zip(&film.indirect).zip(alpha) {
+        let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
+        let (d, i) = (luminance(*d) as f64, luminance(*i) as f64);
+        side[0] += d + i;
+        side[1] += *a as f64 * i;
+    }
+    let whole = |k: usize| sums[0][k] + sums[1][k];
+    let grows = whole(0) / whole(1);
+    sums.map(|[all, target]| {
+        if all <= 0.0 {
+            0.0
+        } else if target > 0.0 && grows.is_finite() {
+            grows * all / target
+        } else {
+            f64::INFINITY
+        }
+    })
+}
+
 /// One of two independent halves of a mix: OMC's direct and indirect light and MMLT's estimate
 /// of the indirect light, as means.
 pub struct MixHalf<'a> {
@@ -316,6 +348,32 @@ pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where MMLT's target grows from α·I to every light path: by b's growth times a side's
+    /// light over its share of the target; a side without light adds nothing, and one whose
+    /// light the target does not hold cannot be carried.
+    #[test]
+    fn mcmc_alone_grows_by_the_light_its_target_would_hold() {
+        let mut film = Film::new(2, 1);
+        // Outside the mask (α = 0.1): direct 1, indirect 1; inside (α = 1): indirect 2 (grey,
+        // so luminance is the value).
+        film.direct[0] = Rgb::splat(1.0);
+        film.indirect[0] = Rgb::splat(1.0);
+        film.indirect[1] = Rgb::splat(2.0);
+        let alpha = [0.1, 1.0];
+        // b = 2 + 2 = 4, b_α = 0.1 + 2 = 2.1.
+        let grows = 4.0 / 2.1;
+        let [out, inside] = mcmc_alone_factors(&film, &alpha);
+        assert!((out / (grows * 2.0 / 0.1) - 1.0).abs() < 1e-5, "{out}");
+        assert!((inside / grows - 1.0).abs() < 1e-5, "{inside}");
+        // No light outside: nothing to carry there.
+        film.direct[0] = Rgb::ZERO;
+        film.indirect[0] = Rgb::ZERO;
+        assert_eq!(mcmc_alone_factors(&film, &alpha)[0], 0.0);
+        // Direct light only outside: MMLT's target on α·I holds none of it.
+        film.direct[0] = Rgb::splat(1.0);
+        assert_eq!(mcmc_alone_factors(&film, &alpha)[0], f64::INFINITY);
+    }
     use crate::rng::{Rng, Sampler};
 
     /// Two estimates of one level with Gaussian noise σ_omc and σ_mcmc (LDR-linear range):

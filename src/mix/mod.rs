@@ -9,8 +9,10 @@
 //!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
 //!    that is already above the switch ends the snapshot there;
 //! 3. the plan: a pilot of MMLT on α·I (`pilot::mcmc`) and the decision (`plan`): the mix at
-//!    the split that minimises the predicted error, OMC alone, or, above the mask's switch,
-//!    MCMC alone; once MMLT's pilot has rendered, "OMC alone" gives OMC the rest of the time
+//!    the split that minimises the predicted error, OMC alone, or MCMC alone (above the mask's
+//!    switch without asking; below it where MMLT's rates, carried to every light path, predict
+//!    less than both, and then MMLT's run on α·I ends and one on every light path renders the
+//!    rest); once MMLT's pilot has rendered, "OMC alone" gives OMC the rest of the time
 //!    and keeps the pilot's render for the composite to weigh (`pilot::kept`); OMC alone
 //!    without the pilot where the mask holds too little of OMC's error for the pilot to repay
 //!    itself (`plan::worth_a_pilot`);
@@ -315,6 +317,37 @@ impl<'a> Job<'a> {
         }
     }
 
+    /// MMLT's settings, its target and, for MCMC alone, its b_d source. MCMC alone (above the
+    /// switch, or where the decision chose it) renders every light path, with b_d from every
+    /// pixel of any pass that holds BPT's strategies: the snapshot's and the losing pilots'
+    /// (`above_switch_b`, which takes the snapshot's tally). The mix renders α·I, its b_d from
+    /// the OMC passes after the snapshot where they serve (set once they are rendered). MMLT
+    /// keeps the plain target: the LDR importance (`mmlt::importance`) that takes 0.61–0.71 of
+    /// MMLT's error over whole images did not lower its error inside the job's masks
+    /// (docs/main-job.md, fourteenth round).
+    fn mcmc_setup<'t>(
+        &self,
+        method: Method,
+        mcmc_only: bool,
+        alpha: &'t [f32],
+        snapshot: &mut Option<(Vec<f64>, u64)>,
+        pool: &Pool,
+    ) -> (MmltSettings, Target<'t>, Option<Tally>) {
+        let b = if mcmc_only {
+            snapshot
+                .take()
+                .and_then(|tally| above_switch_b(method, tally, pool))
+        } else {
+            None
+        };
+        let given = b.is_some() || (!mcmc_only && self.b_from_omc(method));
+        let target = Target {
+            alpha: (!mcmc_only).then_some(alpha),
+            importance: None,
+        };
+        (self.mmlt_settings(mcmc_only, given), target, b)
+    }
+
     /// Whether the mix's MMLT b_d comes from the OMC render's passes (`normalisation`): where
     /// they estimate it as well as MMLT's own (`serves_b`).
     fn b_from_omc(&self, method: Method) -> bool {
@@ -437,28 +470,14 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // The snapshot's depth sums (every pixel weight 1) serve MCMC alone; the mix's α-weighted
     // sums come from the passes after it, which the mask, made from the snapshot, did not see.
     let snapshot_passes = omc.even.passes;
-    let snapshot_tally = (omc.tally(), snapshot_passes);
+    let mut snapshot_tally = Some((omc.tally(), snapshot_passes));
     omc.tally_from_now(Some(alpha.into()), s.max_depth);
 
     // 3. What the rest of the budget goes to. Above the switch MMLT alone renders every light
     // path; in the mix it renders α·I.
     let mcmc_only = measured && masked.switched;
-    // Above the switch b_d is every pixel's, and any pass that holds BPT's strategies serves:
-    // the snapshot's and the losing pilots'.
-    let switch_b = if mcmc_only {
-        above_switch_b(method, snapshot_tally, &pool)
-    } else {
-        None
-    };
-    let given = switch_b.is_some() || (!mcmc_only && job.b_from_omc(method));
-    let mmlt_settings = job.mmlt_settings(mcmc_only, given);
-    // MMLT keeps the plain target: the LDR importance (`mmlt::importance`) that takes 0.61–0.71
-    // of MMLT's error over whole images did not lower its error inside the job's masks
-    // (docs/main-job.md, fourteenth round).
-    let target = Target {
-        alpha: (!mcmc_only).then_some(alpha),
-        importance: None,
-    };
+    let (mut mmlt_settings, mut target, switch_b) =
+        job.mcmc_setup(method, mcmc_only, alpha, &mut snapshot_tally, &pool);
     // MMLT's share under the fixed splits (NaN for the measured one, which decides its own).
     let c = if masked.switched {
         1.0
@@ -525,8 +544,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         None => None,
     };
     let pixels = job.w * job.h;
-    let min_depth = mmlt_settings.min_depth;
-    let mut set_b = |run: &mut MmltRun| {
+    let set_b = |run: &mut MmltRun, b: &mut Option<Tally>, min_depth: u32| {
         if let Some((sums, passes, source)) = b.take()
             && let Some(b) = normalisation(&sums, passes, min_depth, pixels)
         {
@@ -534,7 +552,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         }
     };
     if let Some(run) = &mut mmlt {
-        set_b(run);
+        set_b(run, &mut b, mmlt_settings.min_depth);
     }
     // The checkpoint: the measured mix decides the time left again, with OMC's share rendered
     // (`pilot::checkpoint`); OMC takes its part of it first. Where MMLT gets no more time,
@@ -549,6 +567,15 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         reasons.checkpoint = Some((d, rates));
         choice = d.choice;
         omc_share(&mut omc, choice);
+    }
+    // Below the switch the decision may find MCMC alone the better (`plan::decide`): MMLT's run
+    // on α·I ends there, and MMLT renders every light path in the time left, as above the
+    // switch (on `stress` at 30 s an LT snapshot marked 79.7% of the pixels, and the mix scored
+    // 200 where MMLT alone scores 138: docs/main-job.md, twenty-first round).
+    if choice == Choice::McmcOnly && !mcmc_only {
+        mmlt = None;
+        (mmlt_settings, target, b) =
+            job.mcmc_setup(method, true, alpha, &mut snapshot_tally, &pool);
     }
     // The pace check: part way into MMLT's share, its pace measured over its own render decides
     // the time left again (`pilot::pace_check`); OMC takes its part of it first.
@@ -582,7 +609,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         });
     }
     if let (Some(run), true) = (&mut mmlt, goes_on) {
-        set_b(run);
+        set_b(run, &mut b, mmlt_settings.min_depth);
         run.run(Budget::Seconds(run.seconds() + job.left().max(0.0)));
     }
 
@@ -704,6 +731,9 @@ fn compose(
     }
 }
 
+/// Depth sums over passes, and where they came from (the header's `mixmc.b_source`).
+type Tally = (Vec<f64>, u64, String);
+
 /// MMLT's b_d (from `min_depth` up) from an OMC render's depth sums over `passes` passes of
 /// `pixels` pixels; none without passes (MMLT's bootstrap estimate stands).
 fn normalisation(sums: &[f64], passes: u64, min_depth: u32, pixels: usize) -> Option<Vec<f64>> {
@@ -732,7 +762,7 @@ fn above_switch_b(
     method: Method,
     (mut sums, mut passes): (Vec<f64>, u64),
     pool: &Pool,
-) -> Option<(Vec<f64>, u64, String)> {
+) -> Option<Tally> {
     let mut from = Vec::new();
     if serves_b(method) {
         from.push(format!("snapshot:{}", method.name()));
@@ -798,20 +828,27 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
 /// One decision's rates and predictions, under keys that begin with `prefix`.
 fn set_decision(image: &mut ExrImage, prefix: &str, d: &plan::Decision, r: &plan::Rates) {
     let mut set = |key: &str, v: f64| image.set_float(&format!("{prefix}{key}"), v);
-    set("rate.omc_alone", r.omc_alone);
-    set("rate.omc_out", r.omc_out);
     for (k, c) in r.omc_in.0.iter().enumerate() {
         set(&format!("rate.omc_in.w{k}"), *c);
     }
-    set("rate.mcmc_out", r.mcmc_out);
-    set("rate.mcmc_in", r.mcmc_in);
-    set("rate.mcmc_in_halves", r.mcmc_in_halves);
-    set("rate.mcmc_exponent", r.mcmc_exponent);
-    set("measured_seconds.omc", r.omc_seconds);
-    set("measured_seconds.mcmc", r.mcmc_seconds);
-    set("predicted.omc_alone", d.predicted_omc);
-    set("predicted.mix", d.predicted_mix);
-    set("predicted.omc_weight", d.omc_weight);
+    for (key, v) in [
+        ("rate.omc_alone", r.omc_alone),
+        ("rate.omc_out", r.omc_out),
+        ("rate.mcmc_out", r.mcmc_out),
+        ("rate.mcmc_in", r.mcmc_in),
+        ("rate.mcmc_in_halves", r.mcmc_in_halves),
+        ("rate.mcmc_exponent", r.mcmc_exponent),
+        ("rate.mcmc_alone", r.mcmc_alone),
+        ("measured_seconds.mcmc_startup", r.mcmc_startup),
+        ("measured_seconds.omc", r.omc_seconds),
+        ("measured_seconds.mcmc", r.mcmc_seconds),
+        ("predicted.omc_alone", d.predicted_omc),
+        ("predicted.mix", d.predicted_mix),
+        ("predicted.mcmc_alone", d.predicted_mcmc),
+        ("predicted.omc_weight", d.omc_weight),
+    ] {
+        set(key, v);
+    }
 }
 
 /// Our own AOV image as the layout the mask and compositor read (`Source::into_image` gives
@@ -880,13 +917,67 @@ fn set_header(
 mod tests {
     use super::*;
 
+    fn scene(name: &str) -> Scene {
+        Scene::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("fixtures/scenes/{name}.json")),
+        )
+        .unwrap()
+    }
+
+    /// A measured job of one second with a given partner: small chains, a short bootstrap.
+    fn settings(scene: &Scene, method: Method, seed: u64) -> MixSettings {
+        MixSettings {
+            omc: Partner::from(method),
+            seconds: 1.0,
+            split: Split::Measured,
+            mask_spp: 16,
+            mask: MaskParams::default(),
+            seed,
+            max_depth: scene.max_depth,
+            chains: 4,
+            bootstrap: 100,
+            fxaa: true,
+            quiet: true,
+        }
+    }
+
+    /// MCMC alone, whether above the switch or chosen below it, renders every light path with
+    /// b_d from the snapshot's passes where they serve; the mix renders α·I and leaves the
+    /// snapshot's tally for a later MCMC alone.
+    #[test]
+    fn mcmc_alone_renders_every_light_path_with_b_from_the_snapshot() {
+        let scene = scene("stress-tiny");
+        let (w, h) = (scene.width() as usize, scene.height() as usize);
+        let alpha = vec![0.5f32; w * h];
+        let pool = Pool::empty(w, h);
+        let s = settings(&scene, Method::Lt, 1);
+        let job = Job::new(&scene, &s).unwrap();
+        let mut snapshot = Some((vec![1.0, 2.0, 3.0], 4));
+        let (mix, target, b) = job.mcmc_setup(Method::Lt, false, &alpha, &mut snapshot, &pool);
+        assert_eq!(mix.min_depth, 2);
+        assert!(target.alpha.is_some() && b.is_none() && snapshot.is_some());
+        // LT's passes after the snapshot give the mix's b: MMLT renders none of its own.
+        assert_eq!(mix.b_spp, 0);
+        let (alone, target, b) = job.mcmc_setup(Method::Lt, true, &alpha, &mut snapshot, &pool);
+        assert_eq!(alone.min_depth, 0);
+        assert!(target.alpha.is_none() && snapshot.is_none());
+        assert_eq!(
+            b,
+            Some((vec![1.0, 2.0, 3.0], 4, "snapshot:lt:4".to_string()))
+        );
+        assert_eq!(alone.b_spp, 0);
+        // PT's passes do not serve b (`serves_b`): MMLT renders its own.
+        let mut snapshot = Some((vec![1.0], 4));
+        let (alone, _, b) = job.mcmc_setup(Method::Pt, true, &alpha, &mut snapshot, &pool);
+        assert!(b.is_none());
+        assert_eq!(alone.b_spp, DEFAULT_B_SPP);
+    }
+
     /// b from `passes` OMC passes after a snapshot (the passes the mask did not see), over seeds
     /// 1–4, each ÷ the committed reference's; the mask weights half the film by 1 and the rest by
     /// 0.25.
     fn b_from_omc_over_converged(name: &str, method: Method, passes: u64) -> Vec<f64> {
-        let path =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("fixtures/scenes/{name}.json"));
-        let scene = Scene::load(&path).unwrap();
+        let scene = scene(name);
         let (w, h) = (scene.width() as usize, scene.height() as usize);
         let alpha: Vec<f32> = (0..w * h)
             .map(|p| if p % w < w / 2 { 1.0 } else { 0.25 })
@@ -907,19 +998,7 @@ mod tests {
             / (w * h) as f64;
         (1..=4)
             .map(|seed| {
-                let s = MixSettings {
-                    omc: Partner::from(method),
-                    seconds: 1.0,
-                    split: Split::Measured,
-                    mask_spp: 16,
-                    mask: MaskParams::default(),
-                    seed,
-                    max_depth: scene.max_depth,
-                    chains: 4,
-                    bootstrap: 100,
-                    fxaa: true,
-                    quiet: true,
-                };
+                let s = settings(&scene, method, seed);
                 let job = Job::new(&scene, &s).unwrap();
                 let mut r = Halved::new(w, h, scene.max_depth, seed);
                 r.render(&job, method, Budget::Passes(4), u64::MAX, "");

@@ -1,7 +1,7 @@
 //! The main job's pilots: short renders whose measured errors decide the OMC partner and, once
 //! the mask exists, the split (`plan`). Each pilot's work is kept where its method goes on.
 
-use super::estimate::missing_light;
+use super::estimate::{mcmc_alone_factors, missing_light};
 use super::halved::{Halved, OmcErrors, mean};
 use super::plan::{Candidate, Choice, Decision, Quadratic, Rates, decide};
 use super::pool::Pool;
@@ -382,17 +382,26 @@ fn measured_pace(at: &Rates, now: &Rates) -> f64 {
 /// Both renders' rates (error × seconds) as they stand. Inside the mask, MMLT's whole error as
 /// OMC's render shows it, where that is more than its halves show: the decision at 1/t from
 /// the halves alone mixed on cornell-torus at 120 s, and lost (docs/main-job.md, eleventh
-/// round).
+/// round). MCMC alone's is carried from MMLT's on both sides of the mask by how much more light
+/// its target would hold there (`mcmc_alone_factors`): below the switch, on `stress` at 30 s, the
+/// mix at an MMLT share of 0.45 scored 200 against MMLT alone's 138 (docs/main-job.md,
+/// twenty-first round).
 fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -> Rates {
     let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, run, alpha);
     let (u, v) = (omc.even.seconds, run.chain_seconds());
+    let [grows_out, grows_in] = mcmc_alone_factors(&omc.whole().film, alpha);
+    // A side without light adds nothing, whatever MMLT's error there.
+    let carried = |rate: f64, grows: f64| if grows == 0.0 { 0.0 } else { rate * grows };
+    let whole_in = mcmc_in.max(mcmc_whole) * v;
     Rates {
         omc_alone: e.alone * u,
         omc_out: e.out * u,
         omc_in: Quadratic(e.inside.0.map(|c| c * u)),
         mcmc_out: mcmc_out * v,
-        mcmc_in: mcmc_in.max(mcmc_whole) * v,
+        mcmc_in: whole_in,
         mcmc_in_halves: mcmc_in * v,
+        mcmc_alone: carried(mcmc_out * v, grows_out) + carried(whole_in, grows_in),
+        mcmc_startup: run.seconds() - run.chain_seconds(),
         omc_seconds: u,
         mcmc_seconds: v,
         mcmc_exponent: pace,
@@ -423,6 +432,7 @@ mod tests {
             choice,
             predicted_omc: 1.0,
             predicted_mix: 2.0,
+            predicted_mcmc: f64::INFINITY,
             mix_seconds: 3.0,
             omc_weight: 0.5,
         };
@@ -441,6 +451,8 @@ mod tests {
             mcmc_out: 0.0,
             mcmc_in: error * seconds,
             mcmc_in_halves: error * seconds,
+            mcmc_alone: f64::INFINITY,
+            mcmc_startup: 0.0,
             omc_seconds: 1.0,
             mcmc_seconds: seconds,
             mcmc_exponent: 0.8,

@@ -15,9 +15,10 @@
 //! `q(w)` (its direct and indirect light are correlated, so the three coefficients are measured),
 //! and MMLT's rates inside and outside the mask `m_in`, `m_out`, OMC for `u` seconds and MMLT for
 //! `v` give `(a_out + q(w))/u + (m_out + (1 − w)²·m_in)/v`. For each split the best `w` is in
-//! closed form; the split is searched. OMC alone, `a_alone/(u + v)`, is weighed beside it. Above
-//! the switch the job renders MCMC alone without asking: there a short pilot misjudges both
-//! methods (module `mix`).
+//! closed form; the split is searched. OMC alone, `a_alone/(u + v)`, is weighed beside it, and
+//! MCMC alone, MMLT over every light path in the time left after its start-up, at a rate carried
+//! from MMLT's on α·I (`estimate::mcmc_alone_factors`). Above the switch the job renders MCMC
+//! alone without asking: there a short pilot misjudges both methods (module `mix`).
 
 use crate::integrators::Method;
 
@@ -151,6 +152,12 @@ pub struct Rates {
     pub mcmc_in: f64,
     /// MMLT's rate inside the mask as its halves alone show it.
     pub mcmc_in_halves: f64,
+    /// MCMC alone's rate over the whole image, carried from `mcmc_out` and `mcmc_in` (infinite
+    /// where it cannot be).
+    pub mcmc_alone: f64,
+    /// The seconds MMLT's start-up took before its chains (b and the bootstrap), which MCMC
+    /// alone would pay again.
+    pub mcmc_startup: f64,
     /// Seconds OMC and MMLT's chains have rendered so far.
     pub omc_seconds: f64,
     pub mcmc_seconds: f64,
@@ -192,6 +199,8 @@ pub struct Decision {
     pub predicted_omc: f64,
     /// The mix's, at its best split.
     pub predicted_mix: f64,
+    /// MCMC alone's, in the time left after its start-up.
+    pub predicted_mcmc: f64,
     /// MMLT's further seconds at that split (whatever the choice).
     pub mix_seconds: f64,
     /// The OMC weight inside the mask that the prediction assumed.
@@ -240,9 +249,16 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
         ),
         mcmc_out: clean(r.mcmc_out),
         mcmc_in: clean(r.mcmc_in),
+        mcmc_alone: clean(r.mcmc_alone),
         ..*r
     };
     let predicted_omc = r.omc_alone / (r.omc_seconds + remaining);
+    let chains = remaining - r.mcmc_startup.max(0.0);
+    let predicted_mcmc = if chains > 0.0 {
+        r.mcmc_alone * r.mcmc_pace(chains) / chains
+    } else {
+        f64::INFINITY
+    };
     // OMC keeps some time: it renders the direct light everywhere.
     let (mut best, mut more) = ((f64::INFINITY, 0.0), 0.0);
     for k in 0..SPLIT_STEPS {
@@ -253,7 +269,9 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
         }
     }
     let (predicted_mix, omc_weight) = best;
-    let choice = if predicted_mix < predicted_omc {
+    let choice = if predicted_mcmc < predicted_mix.min(predicted_omc) {
+        Choice::McmcOnly
+    } else if predicted_mix < predicted_omc {
         Choice::Mix { mcmc_seconds: more }
     } else {
         Choice::OmcOnly
@@ -262,6 +280,7 @@ pub fn decide(r: &Rates, remaining: f64) -> Decision {
         choice,
         predicted_omc,
         predicted_mix,
+        predicted_mcmc,
         mix_seconds: more,
         omc_weight,
     }
@@ -299,6 +318,8 @@ mod tests {
             mcmc_out: 0.0,
             mcmc_in,
             mcmc_in_halves: mcmc_in,
+            mcmc_alone: f64::INFINITY,
+            mcmc_startup: 0.0,
             omc_seconds: 2.0,
             mcmc_seconds: 1.0,
             mcmc_exponent: 1.0,
@@ -391,5 +412,42 @@ mod tests {
     fn unmeasurable_rates_never_win() {
         let d = decide(&rates(10.0, 5.0, 0.0, 5.0, f64::NAN), 20.0);
         assert_eq!(d.choice, Choice::OmcOnly);
+        let mut r = rates(10.0, 5.0, 0.0, 5.0, 1.0);
+        r.mcmc_alone = f64::NAN;
+        assert!(matches!(decide(&r, 20.0).choice, Choice::Mix { .. }));
+    }
+
+    #[test]
+    fn mcmc_alone_where_it_predicts_less_than_both_in_the_time_its_start_up_leaves() {
+        // The mix at its best split predicts about 0.9 (`the_split_minimises_the_predicted_error`).
+        let mut r = rates(40.0, 10.0, 0.0, 30.0, 5.0);
+        r.mcmc_startup = 2.0;
+        // MCMC alone's rate 20 over the 25 s its start-up leaves of 27: 0.8, below both.
+        r.mcmc_alone = 20.0;
+        let d = decide(&r, 27.0);
+        assert_eq!(d.choice, Choice::McmcOnly);
+        assert!(
+            (d.predicted_mcmc - 0.8).abs() < 1e-12,
+            "{}",
+            d.predicted_mcmc
+        );
+        assert!(d.predicted_mcmc < d.predicted_mix && d.predicted_mix < d.predicted_omc);
+        // Twice that rate predicts more than the mix, which stands.
+        r.mcmc_alone = 40.0;
+        assert!(matches!(decide(&r, 27.0).choice, Choice::Mix { .. }));
+        // At MMLT's measured pace: t^−0.5 from its 1 s measured to 25 s predicts 5× 1/t's.
+        r.mcmc_alone = 20.0;
+        r.mcmc_exponent = 0.5;
+        let d = decide(&r, 27.0);
+        assert!(
+            (d.predicted_mcmc - 4.0).abs() < 1e-9,
+            "{}",
+            d.predicted_mcmc
+        );
+        assert_ne!(d.choice, Choice::McmcOnly);
+        // No time left after the start-up: never.
+        r.mcmc_exponent = 1.0;
+        r.mcmc_startup = 30.0;
+        assert_ne!(decide(&r, 27.0).choice, Choice::McmcOnly);
     }
 }

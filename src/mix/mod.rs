@@ -806,7 +806,8 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     }
     if let Some((d, r)) = &reasons.decision {
         set_decision(image, "mixmc.", d, r);
-        // The pilot never ends MMLT's render (`pilot::kept`): 0 where OMC rendered the rest.
+        // A pilot that chose OMC alone keeps MMLT's render (`pilot::kept`): 0 where OMC
+        // rendered the rest. None where it chose MCMC alone: MMLT's run on α·I ended there.
         if let Choice::Mix { mcmc_seconds } = d.choice {
             image.set_float("mixmc.pilot_mcmc_seconds", mcmc_seconds);
         }

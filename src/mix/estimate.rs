@@ -255,15 +255,18 @@ pub fn film_means(film: &Film, passes: u64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
 /// twenty-first round): on `stress` at 30 s it gave MCMC alone 33 where two MMLT renders'
 /// difference gives 31; where the mask holds little of the light it overstates it (the torus at
 /// 120 s 22 where MMLT alone has about 6, the caustic at 30 s 10 for about 3). A region without
-/// light gives 0; one whose light the α·I target does not hold, infinity.
-pub fn mcmc_alone_factors(film: &Film, alpha: &[f32]) -> [f64; 2] {
+/// light gives 0; one whose light the α·I target does not hold, infinity. `films` are the
+/// render's parts (its halves), summed: only ratios of sums count.
+pub fn mcmc_alone_factors(films: &[&Film], alpha: &[f32]) -> [f64; 2] {
     // Per side of the mask (outside, inside): Σ Y(D + I) and Σ α·Y(I).
     let mut sums = [[0.0f64; 2]; 2];
-    for ((d, i), a) in film.direct.iter().zip(&film.indirect).zip(alpha) {
-        let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
-        let (d, i) = (luminance(*d) as f64, luminance(*i) as f64);
-        side[0] += d + i;
-        side[1] += *a as f64 * i;
+    for film in films {
+        for ((d, i), a) in film.direct.iter().zip(&film.indirect).zip(alpha) {
+            let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
+            let (d, i) = (luminance(*d) as f64, luminance(*i) as f64);
+            side[0] += d + i;
+            side[1] += *a as f64 * i;
+        }
     }
     let whole = |k: usize| sums[0][k] + sums[1][k];
     let grows = whole(0) / whole(1);
@@ -348,6 +351,7 @@ pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::{Rng, Sampler};
 
     /// Where MMLT's target grows from α·I to every light path: by b's growth times a side's
     /// light over its share of the target; a side without light adds nothing, and one whose
@@ -363,18 +367,25 @@ mod tests {
         let alpha = [0.1, 1.0];
         // b = 2 + 2 = 4, b_α = 0.1 + 2 = 2.1.
         let grows = 4.0 / 2.1;
-        let [out, inside] = mcmc_alone_factors(&film, &alpha);
+        let [out, inside] = mcmc_alone_factors(&[&film], &alpha);
         assert!((out / (grows * 2.0 / 0.1) - 1.0).abs() < 1e-5, "{out}");
         assert!((inside / grows - 1.0).abs() < 1e-5, "{inside}");
+        // A render's two halves count as their sum: the same light split unevenly.
+        let mut half = Film::new(2, 1);
+        half.direct[0] = Rgb::splat(0.25);
+        half.indirect[1] = Rgb::splat(1.5);
+        let mut rest = film.clone();
+        rest.direct[0] -= half.direct[0];
+        rest.indirect[1] -= half.indirect[1];
+        assert_eq!(mcmc_alone_factors(&[&half, &rest], &alpha), [out, inside]);
         // No light outside: nothing to carry there.
         film.direct[0] = Rgb::ZERO;
         film.indirect[0] = Rgb::ZERO;
-        assert_eq!(mcmc_alone_factors(&film, &alpha)[0], 0.0);
+        assert_eq!(mcmc_alone_factors(&[&film], &alpha)[0], 0.0);
         // Direct light only outside: MMLT's target on α·I holds none of it.
         film.direct[0] = Rgb::splat(1.0);
-        assert_eq!(mcmc_alone_factors(&film, &alpha)[0], f64::INFINITY);
+        assert_eq!(mcmc_alone_factors(&[&film], &alpha)[0], f64::INFINITY);
     }
-    use crate::rng::{Rng, Sampler};
 
     /// Two estimates of one level with Gaussian noise σ_omc and σ_mcmc (LDR-linear range):
     /// inverse-variance weighting gives OMC σ_mcmc²/(σ_omc² + σ_mcmc²); a spiky OMC estimate

@@ -77,7 +77,8 @@ pub enum Choice {
     OmcOnly,
     /// OMC and MMLT both render on: `mcmc_seconds` more for MMLT, the rest for OMC.
     Mix { mcmc_seconds: f64 },
-    /// MMLT (all light) renders on; the image is its own (above the mask's switch).
+    /// MMLT (all light) renders on; the image is its own (above the mask's switch, or where
+    /// `decide` predicts it below both the mix and OMC alone).
     McmcOnly,
 }
 

@@ -51,7 +51,7 @@ struct Args {
     /// The literal paper mask (no spike gate).
     #[arg(long)]
     paper_mask: bool,
-    /// Above this fraction of complex pixels render MCMC only [default: 0.9 with the measured
+    /// Above this fraction of complex pixels render MCMC only [default: 0.75 with the measured
     /// split, the paper's 0.35 with the fixed ones].
     #[arg(long)]
     switch: Option<f64>,

@@ -380,9 +380,9 @@ fn floors(res: &Results, scenes: &[String], budgets: &[f64]) -> String {
         return table;
     }
     let mut s = String::from(
-        "\n### The references' own error\n\nEvery MSE above is measured against a BPT reference that \
-         has noise of its own, the same for every method of a scene; estimated from the BPT rows \
-         (`report::reference_floor`):\n\n| scene | reference passes | its LDR MSE (est.) |\n|---|---|---|\n",
+        "\n### The references' own error\n\nEvery MSE above is measured against a reference that has \
+         noise of its own, the same for every method of a scene; where the reference is BPT's, \
+         estimated from the BPT rows (`report::reference_floor`):\n\n| scene | reference passes | its LDR MSE (est.) |\n|---|---|---|\n",
     );
     for (scene, n, f) in &known {
         let _ = writeln!(s, "| {scene} | {n} | {f:.2} |");

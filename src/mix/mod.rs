@@ -117,10 +117,11 @@ const MCMC_PILOT: f64 = 0.05;
 /// 18.0–19.2 against MCMC alone's 24.6–26.0 and MMLT alone's 26.2–28.7 (docs/main-job.md,
 /// fifteenth round). The switch sits between that caustic's largest mask and the smallest where
 /// MCMC alone did better: `stress`, where every light path is hard, is marked 79.7% by 64
-/// passes of LT, IBPT or BPT (88–99% by 16, PT's 99–100%), and there the mix scored 1.3–1.4×
-/// MCMC alone; at 0.9 those partners reached MCMC alone only through the decision, after a
-/// snapshot and MMLT's pilot had taken a third of the budget (docs/main-job.md, twenty-second
-/// round). Between the two, the decision still weighs MCMC alone below the switch.
+/// passes of LT, IBPT or BPT (88–99% by 16, PT's 99–100%), and there the mix scored about 2.4×
+/// MMLT alone's error (against MMLT's reference); at 0.9 those partners reached MCMC alone only
+/// through the decision, after a snapshot and MMLT's pilot had taken a third of the budget
+/// (docs/main-job.md, twenty-second round). Between the two, the decision still weighs MCMC
+/// alone below the switch.
 pub const MEASURED_SWITCH: f64 = 0.75;
 
 /// How the time budget is divided between OMC (with the mask) and MMLT.

@@ -200,7 +200,8 @@ fn requests_beyond_memory_are_refused_up_front() {
     let needle = "a 16384x16384 render needs about 53.7 GB but only 8.0 GB";
     expect_error("mixmc-omc", &[f, "-q"], &cap, f, needle);
     let f = bad("film-16k-deep.json");
-    let needle = "MMLT render of 1023 depths with 100000 bootstrap samples each needs about 6.6 TB";
+    // 64 mutations per pixel by default, so a twentieth of them per depth: 64·16384²/(20·1023).
+    let needle = "MMLT render of 1023 depths with 839680 bootstrap samples each needs about 6.6 TB";
     expect_error("mixmc-mmlt", &[f, "-q"], &cap, f, needle);
     // EXR inputs: the header's size is checked before the pixels are read.
     let f = bad("aov-8x8.exr");

@@ -11,6 +11,7 @@ use mixmc::film::write_beauty_png;
 use mixmc::mask::MaskParams;
 use mixmc::mix::plan::Choice;
 use mixmc::mix::{KEEP_NAMES, MixSettings, Partner, Split, mix};
+use mixmc::mmlt::DEFAULT_BOOTSTRAP;
 use mixmc::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -63,7 +64,7 @@ struct Args {
     chains: usize,
     /// MMLT bootstrap samples per rendered depth (fewer if they would take more than a tenth of
     /// MMLT's time).
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = DEFAULT_BOOTSTRAP)]
     bootstrap: usize,
     /// Skip FXAA on the mask's borders [the default with the measured split].
     #[arg(long, conflicts_with = "fxaa")]

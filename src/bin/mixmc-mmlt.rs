@@ -7,7 +7,7 @@ use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note
 use mixmc::film::write_beauty_png;
 use mixmc::mmlt::{
     DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Importance, Mask, MmltSettings, check_memory,
-    mcmc_image, render,
+    default_bootstrap, mcmc_image, render,
 };
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
@@ -48,9 +48,10 @@ struct Args {
     #[arg(long, default_value_t = DEFAULT_SIGMA)]
     sigma: f32,
     /// Bootstrap samples per rendered depth, which pick the chains' starting states (with --time,
-    /// fewer if they would take more than a tenth of it).
-    #[arg(long, default_value_t = 100_000)]
-    bootstrap: usize,
+    /// fewer if they would take more than a tenth of it) [default: 100000, or with
+    /// --mutations-per-pixel a twentieth of the mutations if that is more].
+    #[arg(long)]
+    bootstrap: Option<usize>,
     /// BPT samples per pixel that estimate the normalisation b (the image's mean luminance).
     #[arg(long, default_value_t = DEFAULT_B_SPP)]
     b_spp: u64,
@@ -86,7 +87,7 @@ fn main() -> ExitCode {
                 args.sigma
             )));
         }
-        if args.bootstrap == 0 || args.chains == 0 || args.b_spp == 0 {
+        if args.bootstrap == Some(0) || args.chains == 0 || args.b_spp == 0 {
             return Err(Error::new(
                 "--bootstrap, --b-spp and --chains must be at least 1",
             ));
@@ -129,7 +130,9 @@ fn main() -> ExitCode {
             seed: args.render.seed,
             budget,
             chains: args.chains,
-            bootstrap: args.bootstrap,
+            bootstrap: args.bootstrap.unwrap_or_else(|| {
+                default_bootstrap(budget, w * h, max_depth.saturating_sub(min_depth) + 1)
+            }),
             b_spp: args.b_spp,
             large_step: args.large_step,
             sigma: args.sigma,

@@ -5,6 +5,7 @@ use clap::Parser;
 use mixmc::cli::{init_threads, main_with, render_exit};
 use mixmc::error::{Error, Result};
 use mixmc::metrics::Metric;
+use mixmc::mmlt::DEFAULT_BOOTSTRAP;
 use mixmc::output::write_atomic;
 use mixmc::study::{Plan, Results, SCENES, chart, paper_omc, report, run};
 use std::path::{Path, PathBuf};
@@ -85,9 +86,11 @@ impl Args {
             )));
         }
         let seeds = self.seeds.unwrap_or(if self.quick { 1 } else { 2 });
-        let bootstrap = self
-            .bootstrap
-            .unwrap_or(if self.quick { 10_000 } else { 100_000 });
+        let bootstrap = self.bootstrap.unwrap_or(if self.quick {
+            10_000
+        } else {
+            DEFAULT_BOOTSTRAP
+        });
         if seeds == 0 || bootstrap == 0 || scenes.is_empty() || self.methods.is_empty() {
             return Err(Error::new(
                 "--seeds, --bootstrap, --scenes and --methods must not be empty or zero",

@@ -110,6 +110,33 @@ impl Mask {
 
 /// BPT passes per pixel that estimate the normalisation b by default.
 pub const DEFAULT_B_SPP: u64 = 32;
+/// Bootstrap samples per rendered depth by default, and the least a long render gets.
+pub const DEFAULT_BOOTSTRAP: usize = 100_000;
+/// A render of a fixed mutation count spends at least this share of its mutations on the
+/// bootstrap ([`default_bootstrap`]).
+const BOOTSTRAP_SHARE: u64 = 20;
+
+/// Bootstrap samples per rendered depth unless the user says: [`DEFAULT_BOOTSTRAP`], or for a
+/// fixed count of `n` mutations per pixel a twentieth of the mutations if that is more (a few
+/// percent of the work; a bootstrap sample costs about a mutation). The chains start where the
+/// bootstrap found light and forget it slowly where light is rare: on `stress` with a mask, the
+/// submerged box face (lit only by paths that hit the light through the water) came out 29–42%
+/// dark at 400 mutations per pixel with 100 000 samples per depth, and 6–8% with 1 000 000
+/// (BENCHMARKS.md, "Where MMLT's chains start"); on the Cornell torus with the job's mask, 1 000 000
+/// lowered both the shared error and the spread between seeds at 86 mutations per pixel. Time
+/// budgets keep the default: there the larger bootstrap would take more time than the chains
+/// (8.3 s against 4.7 s on the torus).
+pub fn default_bootstrap(budget: Budget, pixels: usize, depths: u32) -> usize {
+    match budget {
+        Budget::Passes(n) => {
+            let share =
+                n.saturating_mul(pixels as u64) / (BOOTSTRAP_SHARE * u64::from(depths.max(1)));
+            DEFAULT_BOOTSTRAP.max(usize::try_from(share).unwrap_or(usize::MAX))
+        }
+        Budget::Seconds(_) => DEFAULT_BOOTSTRAP,
+    }
+}
+
 /// Default probability of a large step (pbrt-v3's MLT default).
 pub const DEFAULT_LARGE_STEP: f32 = 0.3;
 /// Default standard deviation of a small step in primary sample space (pbrt-v3's).
@@ -843,6 +870,13 @@ fn normalisation(
 /// held 11% of 700 000 bootstrap weights, ~29 of 256 chains started on it and stayed (acceptance
 /// 0.53 against 0.59 at other seeds; a 32×32 block 5.5% off). Capped, it starts one chain, and
 /// the chains' large steps find such states at their true rate.
+///
+/// The cap is a bias, worn off only as the chains' large steps find those states, so it grows
+/// with the chains' number (each shorter): on `stress` with a mask of ε = 0.02, the submerged
+/// box face came out 29–42% dark with 256 chains and 44–46% with 2048, where plain resampling
+/// gave 20–56% with either (the rest of that error is the bootstrap's, [`default_bootstrap`]).
+/// Kept because it wins at equal time where the job mixes: plain resampling took the water's
+/// 30-s main job from 28–31 to 34–48 (BENCHMARKS.md, "Where MMLT's chains start").
 fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
     let mut c = k as f64 / weights.iter().map(|&y| y as f64).sum::<f64>();
     // Raising c until the capped probabilities sum to k: the set of capped samples only grows.
@@ -1036,7 +1070,7 @@ pub fn mcmc_image(
 
 #[cfg(test)]
 mod tests {
-    use super::{capped_picks, grouped_picks};
+    use super::{Budget, DEFAULT_BOOTSTRAP, capped_picks, default_bootstrap, grouped_picks};
 
     /// Two groups start their chains from disjoint halves of the bootstrap (each from the
     /// samples of its own parity within a depth, so their images share no start), half the
@@ -1084,5 +1118,21 @@ mod tests {
                 count[i]
             );
         }
+    }
+
+    /// Long renders of a fixed count get a bootstrap of a twentieth of their mutations; short
+    /// ones and time budgets the default.
+    #[test]
+    fn the_bootstrap_grows_with_a_long_render() {
+        let px = 256 * 256;
+        assert_eq!(
+            default_bootstrap(Budget::Passes(64), px, 13),
+            DEFAULT_BOOTSTRAP
+        );
+        assert_eq!(default_bootstrap(Budget::Passes(10_000), px, 13), 2_520_615);
+        assert_eq!(
+            default_bootstrap(Budget::Seconds(3600.0), px, 13),
+            DEFAULT_BOOTSTRAP
+        );
     }
 }

@@ -118,8 +118,7 @@ const BOOTSTRAP_SHARE: u64 = 20;
 
 /// Bootstrap samples per rendered depth unless the user says: [`DEFAULT_BOOTSTRAP`], or for a
 /// fixed count of `n` mutations per pixel a twentieth of the mutations if that is more (on
-/// `stress` at 10 000 per pixel, 68 s beside the chains' 829 s: a bootstrap sample is a whole new
-/// path, about 1.7 mutations). The chains start where the
+/// `stress` at 10 000 per pixel, 35 s beside the chains' 707 s). The chains start where the
 /// bootstrap found light and forget it slowly where light is rare: on `stress` with a mask, the
 /// submerged box face (lit only by paths that hit the light through the water) came out 29–42%
 /// dark at 400 mutations per pixel with 100 000 samples per depth, and 6–8% with 1 000 000

@@ -232,14 +232,16 @@ fn renderers_of(target: &str) -> Vec<i32> {
         .collect()
 }
 
-/// Watch for the renderer of `target` and kill it ~0.3 s into its render; true if it was killed.
+/// Watch for the renderer of `target` and kill it as soon as it is seen; true if it was killed.
+/// At once, not a moment into its render: a pass of the tiny scene takes 0.13 s on an AMD Zen 5,
+/// and a kill 0.3 s after the renderer was seen found its Slurm job finished there (CI,
+/// 2026-12-06). Killed while it loads or while it renders, the pass fails and is run again.
 fn kill_when_running(target: PathBuf, how: Kill) -> std::thread::JoinHandle<bool> {
     std::thread::spawn(move || {
         let target = target.display().to_string();
         let deadline = Instant::now() + Duration::from_secs(120);
         while Instant::now() < deadline {
             if let Some(&pid) = renderers_of(&target).first() {
-                std::thread::sleep(Duration::from_millis(300));
                 return match how {
                     // SAFETY: kill(2) takes plain integers; the PID is a renderer this test's
                     // Snakemake started, seen running a moment ago.

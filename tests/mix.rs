@@ -26,8 +26,9 @@ const FAST: [&str; 6] = ["--bootstrap", "5000", "--chains", "64", "--threads", "
 /// of them), tried in turn until `done` holds for the job's image; whether it held for one.
 /// The measured job decides by how far OMC converges in its budget, so seconds tuned on one
 /// CPU do not give the same decisions on another: at 4 s seed 2's pilot predicted a mix 30%
-/// below OMC alone where the tests were tuned and a tie on an AMD Zen 5 (IBPT 200 passes/s there: 7.68
-/// against 7.67), where the time of 400 passes (2 s) gave 10.3 against 13.1 (CI, 2026-12-06).
+/// below OMC alone where the tests were tuned, and a tie on an AMD Zen 5 (IBPT at 200 passes/s
+/// there: 7.68 against 7.67), where the time of 400 passes (2 s) gave 10.3 against 13.1 (CI,
+/// 2026-12-06).
 fn water_jobs(name: &str, runs: &[(f64, &str)], done: impl Fn(&ExrImage) -> bool) -> bool {
     let tmp = TempDir::new(name);
     let scene = fixture("scenes/cornell-water-tiny.json");

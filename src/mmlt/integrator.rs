@@ -148,7 +148,7 @@ pub const DEFAULT_SIGMA: f32 = 0.01;
 /// `groups` independent halves ([`MmltRun::start`]) keep that many sums per depth.
 pub fn check_memory(width: usize, height: usize, s: &MmltSettings, groups: usize) -> Result<()> {
     let pixels = (width * height) as u64;
-    let depths = u64::from(s.max_depth.saturating_sub(s.min_depth) + 1);
+    let depths = s.depths().count() as u64;
     let per_pixel = 24 * depths * groups.max(1) as u64 + crate::omc::BYTES_PER_PIXEL;
     let bytes = pixels
         .saturating_mul(per_pixel)
@@ -184,6 +184,14 @@ pub struct MmltSettings {
     /// b_d ([`MmltRun::set_normalisation`]) and take Kelemen's weights from then on.
     pub kelemen_mis: bool,
     pub quiet: bool,
+}
+
+impl MmltSettings {
+    /// The depths rendered, each with chains and a b_d of its own (none if `max_depth` is
+    /// below `min_depth`).
+    pub fn depths(&self) -> std::ops::RangeInclusive<u32> {
+        self.min_depth..=self.max_depth
+    }
 }
 
 /// A finished (or interrupted) MMLT render and its statistics.
@@ -459,7 +467,7 @@ impl<'a> MmltRun<'a> {
     ) -> MmltRun<'a> {
         let begin = Instant::now();
         let pixels = scene.width() as usize * scene.height() as usize;
-        let depths: Vec<u32> = (s.min_depth..=s.max_depth).collect();
+        let depths: Vec<u32> = s.depths().collect();
         let nd = depths.len();
         let groups = groups.clamp(1, 2);
         let (b_depth, b_spp) = normalisation(scene, target, s, &depths);
@@ -1121,26 +1129,21 @@ mod tests {
             }
         }
         let scale = (w * h) as f64 / n as f64;
-        let block = |img: &dyn Fn(usize) -> [f64; 3], bx: usize, by: usize| {
-            let mut sum = [0.0f64; 3];
-            for y in by * 32..(by + 1) * 32 {
-                for x in bx * 32..(bx + 1) * 32 {
-                    let v = img(y * w + x);
-                    (0..3).for_each(|c| sum[c] += v[c]);
-                }
+        // Each image's 32×32 block sums, block by block.
+        let blocks = |value: &dyn Fn(usize) -> [f64; 3]| {
+            let mut sums = vec![[0.0f64; 3]; (w / 32) * (h / 32)];
+            for pixel in 0..w * h {
+                let block = &mut sums[(pixel / w / 32) * (w / 32) + pixel % w / 32];
+                let v = value(pixel);
+                (0..3).for_each(|c| block[c] += v[c]);
             }
-            sum
+            sums
         };
-        let mut worst = 0.0f64;
-        for by in 0..h / 32 {
-            for bx in 0..w / 32 {
-                let ours = block(&|p| image[p].map(|v| v * scale), bx, by);
-                let theirs = block(&|p| reference[p].map(f64::from), bx, by);
-                for c in 0..3 {
-                    worst = worst.max((ours[c] / theirs[c] - 1.0).abs());
-                }
-            }
-        }
+        let ours = blocks(&|p| image[p].map(|v| v * scale));
+        let theirs = blocks(&|p| reference[p].map(f64::from));
+        let worst = (ours.iter().zip(&theirs))
+            .flat_map(|(o, t)| (0..3).map(move |c| (o[c] / t[c] - 1.0).abs()))
+            .fold(0.0f64, f64::max);
         assert!(worst < 0.08, "worst 32×32 block off by {worst}");
     }
 

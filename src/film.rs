@@ -90,16 +90,15 @@ impl Film {
             .collect()
     }
 
-    /// Add a value of a path of the given depth to one pixel.
+    /// Add a value of a path of the given depth to one pixel's direct or indirect sum. Not to
+    /// the depth tally: the splatting methods add their splats one by one on one thread
+    /// (`bidir::render_views`) and tally them where they are made, in parallel.
     #[inline]
     pub fn add(&mut self, pixel: usize, depth: u32, value: Rgb) {
         if depth <= 1 {
             self.direct[pixel] += value;
         } else {
             self.indirect[pixel] += value;
-        }
-        if let Some(t) = &mut self.tally {
-            t.add(pixel, depth, value);
         }
     }
 

@@ -475,9 +475,9 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
     };
     let (rates, exponents) = (list("mixmc.omc_rates"), list("mixmc.omc_exponents"));
     let projected = list("mixmc.omc_projected");
-    // PT's own pilot and the shared one's three views.
+    // The shared pilot's four views.
     let names: Vec<&str> = rates.iter().map(|(k, _)| k.as_str()).collect();
-    assert_eq!(names, ["pt", "bpt", "ibpt", "lt"], "{rates:?}");
+    assert_eq!(names, ["bpt", "ibpt", "lt", "pt"], "{rates:?}");
     assert_eq!(exponents.len(), 4, "{exponents:?}");
     for ((rate, k), e) in rates.iter().zip(&exponents).zip(&projected) {
         assert!((0.5..=1.0).contains(&k.1), "{exponents:?}");

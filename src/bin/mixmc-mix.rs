@@ -175,11 +175,6 @@ fn main() -> ExitCode {
                 );
             }
         }
-        let pooled = if m.reasons.pooled.is_empty() {
-            String::new()
-        } else {
-            format!(", pilots pooled {}", m.reasons.pooled)
-        };
         // The share of the time MMLT's pilot would take is set wherever the job weighed it.
         let unpiloted = if m.reasons.decision.is_none() && m.reasons.pilot_share > 0.0 {
             format!(
@@ -218,7 +213,7 @@ fn main() -> ExitCode {
         })
         .collect();
         let how = format!(
-            "{:.2}% complex pixels{}, {}{checked}{unpiloted}{b}{weight}{pooled}",
+            "{:.2}% complex pixels{}, {}{checked}{unpiloted}{b}{weight}",
             100.0 * m.complex_fraction,
             if m.switched { " (switch)" } else { "" },
             m.choice.name()

@@ -42,6 +42,14 @@ impl Method {
         }
     }
 
+    /// The strategies by which a shared pass of BPT's sub-paths weighs this method's paths
+    /// (`bidir::render_views`): the bidirectional methods' own; for PT, a path tracer's
+    /// strategies on those sub-paths (`Strategies::Pt`), an estimate with PT's error, not PT's
+    /// render.
+    pub fn view(self) -> Strategies {
+        self.strategies().unwrap_or(Strategies::Pt)
+    }
+
     /// Add pass number `pass` of a render with `seed` to `film`. Passes are independent: the
     /// same (seed, pass) always adds the same values, whatever the thread count.
     pub fn render_pass(self, scene: &Scene, max_depth: u32, seed: u64, pass: u64, film: &mut Film) {

@@ -20,8 +20,7 @@ pub(super) struct Halved {
     /// The even passes; `passes` and `seconds` count both halves.
     pub(super) even: Rendered,
     pub(super) odd: Film,
-    /// The seed its passes draw from: the job's, and for the partner pilots' winner another
-    /// after its pilot (`reseed`).
+    /// The seed its passes draw from: the job's.
     seed: u64,
 }
 
@@ -35,13 +34,6 @@ impl Halved {
         };
         r.tally_from_now(None, max_depth);
         r
-    }
-
-    /// Draw the passes from here on from `seed`. Passes of one seed and method are the same
-    /// paths whatever renders them; the partner pilots' winner goes on independent of the
-    /// losers' passes, which share its pilot's seed and are pooled with it (`pool`).
-    pub(super) fn reseed(&mut self, seed: u64) {
-        self.seed = seed;
     }
 
     /// Tally the passes from here on afresh, with these pixel weights.
@@ -88,12 +80,7 @@ impl Halved {
         budget: Budget,
         label: &str,
     ) {
-        let methods: Vec<Strategies> = views.iter().filter_map(|(m, _)| m.strategies()).collect();
-        debug_assert_eq!(
-            methods.len(),
-            views.len(),
-            "views are bidirectional methods"
-        );
+        let methods: Vec<Strategies> = views.iter().map(|(m, _)| m.view()).collect();
         let Some(((_, first), rest)) = views.split_first_mut() else {
             return;
         };

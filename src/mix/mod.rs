@@ -1,10 +1,9 @@
 //! The main job (`mixmc-mix`): the whole method of the paper in one process at a time budget.
 //!
 //! By default the job measures before it commits. `mix` is a sequence of phases:
-//! 1. the OMC partner: a short pilot of PT and one of BPT's sub-paths weighed as BPT, IBPT and
-//!    LT at once (`pilot::partner`); the smallest error projected to the budget (from each
-//!    pilot's error and how fast it falls) wins and keeps its passes; PT's, if it loses, are
-//!    pooled into its image at the end, weighed by their measured errors (`pool`);
+//! 1. the OMC partner: a short pilot of BPT's sub-paths weighed as BPT, IBPT, LT and PT at once
+//!    (`pilot::partner`); the smallest error projected to the budget (from each pilot's error
+//!    and how fast it falls) wins and keeps its passes;
 //! 2. the snapshot the mask is built from (the paper builds it from an early snapshot, 64–128
 //!    spp, while OMC keeps rendering), and the mask; a mask of the first MIN_MASK_SPP passes
 //!    that is already above the switch ends the snapshot there;
@@ -37,7 +36,6 @@ pub mod estimate;
 mod halved;
 mod pilot;
 pub mod plan;
-mod pool;
 
 use crate::composite::{Composite, Input, OmcInput, OmcWeights, Options, composite};
 use crate::error::{Error, Result};
@@ -55,7 +53,6 @@ use crate::render::Budget;
 use crate::scene::Scene;
 use halved::Halved;
 use plan::{Choice, Reasons};
-use pool::Pool;
 use std::path::Path;
 use std::time::Instant;
 
@@ -336,12 +333,12 @@ impl<'a> Job<'a> {
         mcmc_only: bool,
         alpha: &'t [f32],
         snapshot: &mut Option<(Vec<f64>, u64)>,
-        pool: &Pool,
+        pilot_b: &(Vec<f64>, u64),
     ) -> (MmltSettings, Target<'t>, Option<Tally>) {
         let b = if mcmc_only {
             snapshot
                 .take()
-                .and_then(|tally| above_switch_b(method, tally, pool))
+                .and_then(|tally| above_switch_b(method, tally, pilot_b))
         } else {
             None
         };
@@ -443,20 +440,17 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     let measured = job.measured();
     let mut reasons = Reasons::default();
 
-    // 1. The OMC partner: the user's, or the pilots' winner, which keeps its passes; the losers'
-    // are pooled into its image at the end.
-    let (method, mut omc, pool, rate) = match s.omc.method() {
+    // 1. The OMC partner: the user's, or the pilot's winner, which keeps its passes.
+    let (method, mut omc, pilot_b) = match s.omc.method() {
         Some(m) => (
             m,
             Halved::new(job.w, job.h, s.max_depth, s.seed),
-            Pool::empty(job.w, job.h),
-            f64::NAN,
+            (Vec::new(), 0),
         ),
         None => {
             let c = pilot::partner(&job);
-            let rate = c.rate();
             reasons.partners = c.candidates;
-            (c.method, c.render, c.pool, rate)
+            (c.method, c.render, c.bpt_sums)
         }
     };
     let omc_settings = OmcSettings {
@@ -482,7 +476,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // path; in the mix it renders α·I.
     let mcmc_only = measured && masked.switched;
     let (mut mmlt_settings, mut target, switch_b) =
-        job.mcmc_setup(method, mcmc_only, alpha, &mut snapshot_tally, &pool);
+        job.mcmc_setup(method, mcmc_only, alpha, &mut snapshot_tally, &pilot_b);
     // MMLT's share under the fixed splits (NaN for the measured one, which decides its own).
     let c = if masked.switched {
         1.0
@@ -580,7 +574,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     if choice == Choice::McmcOnly && !mcmc_only {
         mmlt = None;
         (mmlt_settings, target, b) =
-            job.mcmc_setup(method, true, alpha, &mut snapshot_tally, &pool);
+            job.mcmc_setup(method, true, alpha, &mut snapshot_tally, &pilot_b);
     }
     // The pace check: part way into MMLT's share, its pace measured over its own render decides
     // the time left again (`pilot::pace_check`); OMC takes its part of it first.
@@ -597,11 +591,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             omc_share(&mut omc, choice);
         }
     }
-    let omc_render = pool.apply(omc.whole(), rate);
-    if choice != Choice::McmcOnly {
-        // Above the switch the image is MMLT's own; the pilots served its b alone.
-        reasons.pooled = pool.describe(omc_render.seconds, rate);
-    }
+    let omc_render = omc.whole();
     let mut partial = omc_render.partial;
     let goes_on = matches!(choice, Choice::Mix { .. } | Choice::McmcOnly) && !partial;
     if goes_on {
@@ -761,12 +751,12 @@ fn serves_b(method: Method) -> bool {
 }
 
 /// MMLT's b_d source above the switch (every pixel weight 1): the snapshot's depth sums where
-/// the partner's passes serve (`serves_b`), and the losing pilots' that do; none without such
-/// passes (MMLT renders its own).
+/// the partner's passes serve (`serves_b`), and BPT's pilot's where they do not
+/// (`pilot::Chosen::bpt_sums`); none without such passes (MMLT renders its own).
 fn above_switch_b(
     method: Method,
     (mut sums, mut passes): (Vec<f64>, u64),
-    pool: &Pool,
+    (pilot, n): &(Vec<f64>, u64),
 ) -> Option<Tally> {
     let mut from = Vec::new();
     if serves_b(method) {
@@ -775,9 +765,9 @@ fn above_switch_b(
         sums.clear();
         passes = 0;
     }
-    let (pooled, n) = pool.bpt_tally();
-    if n > 0 {
-        pool::add_sums(&mut sums, pooled);
+    if *n > 0 {
+        sums.resize(sums.len().max(pilot.len()), 0.0);
+        sums.iter_mut().zip(pilot).for_each(|(a, b)| *a += b);
         passes += n;
         from.push("pilots".to_string());
     }
@@ -792,9 +782,6 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.mcmc_unseen_outside", reasons.mcmc_unseen_outside);
     image.set_float("mixmc.mask_error_share", reasons.mask_share);
     image.set_float("mixmc.mcmc_pilot_share", reasons.pilot_share);
-    if !reasons.pooled.is_empty() {
-        image.set_text("mixmc.pooled", &reasons.pooled);
-    }
     type Field = fn(&plan::Candidate) -> String;
     let fields: [(&str, Field); 3] = [
         ("mixmc.omc_rates", |c| format!("{:.4e}", c.rate)),
@@ -955,16 +942,16 @@ mod tests {
         let scene = scene("stress-tiny");
         let (w, h) = (scene.width() as usize, scene.height() as usize);
         let alpha = vec![0.5f32; w * h];
-        let pool = Pool::empty(w, h);
+        let pilot_b = (Vec::new(), 0);
         let s = settings(&scene, Method::Lt, 1);
         let job = Job::new(&scene, &s).unwrap();
         let mut snapshot = Some((vec![1.0, 2.0, 3.0], 4));
-        let (mix, target, b) = job.mcmc_setup(Method::Lt, false, &alpha, &mut snapshot, &pool);
+        let (mix, target, b) = job.mcmc_setup(Method::Lt, false, &alpha, &mut snapshot, &pilot_b);
         assert_eq!(mix.min_depth, 2);
         assert!(target.alpha.is_some() && b.is_none() && snapshot.is_some());
         // LT's passes after the snapshot give the mix's b: MMLT renders none of its own.
         assert_eq!(mix.b_spp, 0);
-        let (alone, target, b) = job.mcmc_setup(Method::Lt, true, &alpha, &mut snapshot, &pool);
+        let (alone, target, b) = job.mcmc_setup(Method::Lt, true, &alpha, &mut snapshot, &pilot_b);
         assert_eq!(alone.min_depth, 0);
         assert!(target.alpha.is_none() && snapshot.is_none());
         assert_eq!(
@@ -974,7 +961,7 @@ mod tests {
         assert_eq!(alone.b_spp, 0);
         // PT's passes do not serve b (`serves_b`): MMLT renders its own.
         let mut snapshot = Some((vec![1.0], 4));
-        let (alone, _, b) = job.mcmc_setup(Method::Pt, true, &alpha, &mut snapshot, &pool);
+        let (alone, _, b) = job.mcmc_setup(Method::Pt, true, &alpha, &mut snapshot, &pilot_b);
         assert!(b.is_none());
         assert_eq!(alone.b_spp, DEFAULT_B_SPP);
     }

@@ -4,31 +4,28 @@
 use super::estimate::{mcmc_alone_factors, missing_light};
 use super::halved::{Halved, OmcErrors, mean};
 use super::plan::{Candidate, Choice, Decision, Quadratic, Rates, decide};
-use super::pool::Pool;
 use super::{Job, MCMC_PILOT, serves_b};
 use crate::integrators::Method;
 use crate::mmlt::{MmltRun, MmltSettings, Target};
 use crate::render::Budget;
-use crate::rng::mix64;
 use std::time::Instant;
 
-/// The candidate of `--omc auto` with a pilot of its own: PT's paths are not BPT's.
-const ALONE: Method = Method::Pt;
-/// The candidates rendered together by one pilot of BPT's sub-paths, each weighed by its own
-/// strategies (`Halved::render_views`): the same paths, so their errors are compared without
-/// their paths' noise between them, and for about the cost of BPT's pilot alone. LT was left out
-/// while it needed a pilot of its own: a few passes of it ranked LT 1.2–1.35× BPT on the torus,
-/// where LT alone was the best single method (docs/main-job.md, fourth round).
-const SHARED: [Method; 3] = [Method::Bpt, Method::Ibpt, Method::Lt];
-/// Each pilot, as a share of the budget, up to `PARTNER_PILOT_MAX` seconds; the winner's passes
-/// are kept, PT's as a loser are pooled into the winner's image (`pool`). The ranking needs a
-/// few passes of each (BPT renders about 5 a second at 256² on two cores), not a share that
-/// grows with the budget.
-const PARTNER_PILOT: f64 = 0.03;
-const PARTNER_PILOT_MAX: f64 = 2.0;
-/// The shared pilot is longer: it ranks three methods, one of them as fast as BPT's pass allows.
-const SHARED_PILOT: f64 = 0.04;
-const SHARED_PILOT_MAX: f64 = 2.5;
+/// The candidates of `--omc auto`, rendered together by one pilot of BPT's sub-paths, each
+/// weighed by its own strategies (`Halved::render_views`; PT by a path tracer's, `Method::view`):
+/// the same paths, so their errors are compared without their paths' noise between them (with a
+/// seed each, BPT's noise in `missing_light` made IBPT's rate 1.1–1.4× BPT's on cornell-water
+/// and BPT won 8 of 8 jobs, which cost 6%: docs/main-job.md, sixth round), and for about the
+/// cost of BPT's pilot alone. LT was left out while it needed a pilot of its own: a few
+/// passes of it ranked LT 1.2–1.35× BPT on the torus, where LT alone was the best single method
+/// (docs/main-job.md, fourth round). PT had a pilot of its own, 3% of the budget (at most 2 s),
+/// which was pooled into the winner's image at 1–2% weight where it lost: most of its time was
+/// the job's overhead wherever PT is not the partner (docs/main-job.md, twenty-fifth round).
+const CANDIDATES: [Method; 4] = [Method::Bpt, Method::Ibpt, Method::Lt, Method::Pt];
+/// The pilot, as a share of the budget, up to `PILOT_MAX` seconds; the winner keeps its passes.
+/// The ranking needs a few passes of each (BPT renders about 5 a second at 256² on two cores),
+/// not a share that grows with the budget.
+const PILOT: f64 = 0.04;
+const PILOT_MAX: f64 = 2.5;
 /// The slowest convergence a pilot may be credited with: error ∝ t^−K_MIN.
 const K_MIN: f64 = 0.5;
 /// Passes a pilot needs at its first point for its exponent to be measured: with fewer, each
@@ -69,10 +66,13 @@ fn exponent((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> f64 {
 
 /// Each pilot's exponent as the ranking uses it. The shared views are one set of paths: when a
 /// firefly turns up in the second half of the pilot it lowers every view's measured exponent,
-/// each by the chance of its own weights. They take one exponent, the view that holds every
-/// strategy's (BPT's); PT, with a pilot of its own, keeps its own. On `caustic` (a glass
-/// sphere's caustic, 128²) BPT's 0.50 against LT's 0.74 sent a job to LT with 1.7× BPT's rate,
-/// and LT alone had 1.7× BPT's error at 30 s (docs/main-job.md, fifteenth round).
+/// each by the chance of its own weights. The bidirectional views take one exponent, the view
+/// that holds every strategy's (BPT's): on `caustic` (a glass sphere's caustic, 128²) BPT's 0.50
+/// against LT's 0.74 sent a job to LT with 1.7× BPT's rate, and LT alone had 1.7× BPT's error at
+/// 30 s (docs/main-job.md, fifteenth round). PT keeps its own: its fireflies are the paths that
+/// only its strategies find and BPT's weigh down (caustics the camera path reaches through
+/// glass), and its slow pace is what keeps it from the room, where its error falls as
+/// passes^−0.6 (`exponent`).
 fn shared_exponents(measured: &[(Method, f64)]) -> Vec<f64> {
     let bpt = measured
         .iter()
@@ -81,87 +81,55 @@ fn shared_exponents(measured: &[(Method, f64)]) -> Vec<f64> {
     measured
         .iter()
         .map(|&(m, k)| match bpt {
-            Some(b) if m != ALONE => b,
+            Some(b) if m != Method::Pt => b,
             _ => k,
         })
         .collect()
 }
 
-/// The seed of the winner's passes after its pilot. The pilots share the job's seed, so that
-/// their passes share their camera (BPT's and IBPT's also their light) random numbers: their
-/// errors are then compared on the same paths, which ranks the near ties between IBPT and BPT
-/// (cornell-water) as the study does; with a seed each, BPT's noise in `missing_light` made
-/// IBPT's rate 1.1–1.4× BPT's and BPT won 8 of 8 jobs, which cost 6% (docs/main-job.md, sixth
-/// round). The passes the winner goes on with must be independent of the losers' it is pooled
-/// with.
-fn continuation_seed(seed: u64) -> u64 {
-    mix64(seed ^ CONTINUATION_KEY)
-}
-
-/// Keys the winner's later passes apart from the pilots'.
-const CONTINUATION_KEY: u64 = 0x7069_6c6f_7473_0001;
-
-/// The partner the pilots chose, and what the others leave behind.
+/// The partner the pilot chose, and what the others leave behind.
 pub(super) struct Chosen {
     pub(super) method: Method,
     /// The winner's render, which goes on.
     pub(super) render: Halved,
     /// Every candidate's pilot as measured, the winner's among them.
     pub(super) candidates: Vec<Candidate>,
-    /// The losers' passes, weighed by their measured errors.
-    pub(super) pool: Pool,
+    /// BPT's pilot's depth sums and passes where the winner's passes do not serve MMLT's b
+    /// (`serves_b`), for MCMC alone above the switch; none otherwise.
+    pub(super) bpt_sums: (Vec<f64>, u64),
 }
 
-impl Chosen {
-    /// The winner's measured rate.
-    pub(super) fn rate(&self) -> f64 {
-        self.candidates
-            .iter()
-            .find(|c| c.method == self.method)
-            .map_or(f64::NAN, |c| c.rate)
-    }
-}
-
-/// A pilot of PT alone and one shared by BPT, IBPT and LT (`SHARED`), all of the job's seed.
-/// The shared pilot's first pass is each candidate's alone, timed: what one of its passes costs,
-/// which the shared passes cannot tell (they pay for BPT's joins whatever they weigh), and the
-/// same values its view would have had (`bidir::render_views`). The candidate whose error,
-/// projected from its pilot to the job's budget at its own measured pace (`exponent`), is
-/// smallest wins and goes on. A shared candidate's seconds are its passes at its own cost per
-/// pass: what its render would have cost alone. A candidate's error is its variance's plus the
-/// light it has missing against BPT's view (`estimate::missing_light`; BPT holds every
-/// strategy, so it misses least). PT's pilot, if it loses, is pooled into the winner's image;
-/// the shared losers' passes are the winner's paths and are not.
+/// One pilot shared by every candidate (`CANDIDATES`), of the job's seed. Its first pass is each
+/// candidate's alone, timed: what one of its passes costs, which the shared passes cannot tell
+/// (they pay for BPT's joins whatever they weigh), and for the bidirectional methods the same
+/// values its view would have had (`bidir::render_views`; PT's first pass is PT's own). The
+/// candidate whose error, projected from its pilot to the job's budget at its own measured pace
+/// (`exponent`), is smallest wins and goes on. A candidate's seconds are its passes at its own
+/// cost per pass: what its render would have cost alone. A candidate's error is its variance's
+/// plus the light it has missing against BPT's view (`estimate::missing_light`; BPT holds every
+/// strategy, so it misses least). The losers' images are the winner's paths and are not pooled
+/// with it.
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
     let seed = job.s.seed;
-    let fresh = || Halved::new(w, h, job.s.max_depth, seed);
-    let mut pilots = vec![(ALONE, fresh())];
-    let alone_label = format!("mix: pilot of {}", ALONE.name());
-    let pilot = (PARTNER_PILOT * job.s.seconds).min(PARTNER_PILOT_MAX);
-    let mut early = vec![
-        measured_pilot(&mut pilots, pilot, |p, budget| {
-            p[0].1.render(job, ALONE, budget, u64::MAX, &alone_label)
-        })[0],
-    ];
-    if !pilots[0].1.even.partial {
-        let start = Instant::now();
-        let mut shared: Vec<(Method, Halved)> = SHARED.iter().map(|m| (*m, fresh())).collect();
-        let mut per_pass = Vec::new();
-        for (m, r) in shared.iter_mut() {
-            let label = format!("mix: pilot of {}", m.name());
-            r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
-            per_pass.push(r.even.seconds / r.even.passes.max(1) as f64);
-        }
-        let pilot = (SHARED_PILOT * job.s.seconds).min(SHARED_PILOT_MAX);
-        let left = pilot - start.elapsed().as_secs_f64();
-        early.extend(measured_pilot(&mut shared, left, |p, budget| {
-            Halved::render_views(p, job, budget, "mix: pilot of bpt, ibpt, lt")
-        }));
-        for ((_, r), t) in shared.iter_mut().zip(per_pass) {
-            r.even.seconds = t * r.even.passes as f64;
-        }
-        pilots.extend(shared);
+    let start = Instant::now();
+    let mut pilots: Vec<(Method, Halved)> = CANDIDATES
+        .iter()
+        .map(|m| (*m, Halved::new(w, h, job.s.max_depth, seed)))
+        .collect();
+    let mut per_pass = Vec::new();
+    for (m, r) in pilots.iter_mut() {
+        let label = format!("mix: pilot of {}", m.name());
+        r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
+        per_pass.push(r.even.seconds / r.even.passes.max(1) as f64);
+    }
+    let pilot = (PILOT * job.s.seconds).min(PILOT_MAX);
+    let left = pilot - start.elapsed().as_secs_f64();
+    let early = measured_pilot(&mut pilots, left, |p, budget| {
+        Halved::render_views(p, job, budget, "mix: pilot of bpt, ibpt, lt, pt")
+    });
+    for ((_, r), t) in pilots.iter_mut().zip(per_pass) {
+        r.even.seconds = t * r.even.passes as f64;
     }
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
     let beauties: Vec<[Vec<[f32; 3]>; 2]> = pilots.iter().map(|(_, r)| r.beauty_halves()).collect();
@@ -199,27 +167,16 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let best = (0..candidates.len())
         .min_by(|&a, &b| candidates[a].projected.total_cmp(&candidates[b].projected))
         .unwrap_or(0);
-    let mut pool = Pool::empty(w, h);
-    let winner = pilots[best].0;
-    for (i, (m, r)) in pilots.iter().enumerate() {
-        if i == best {
-            continue;
-        }
-        if *m == ALONE {
-            pool.add(*m, r, errors[i], true);
-        } else if *m == Method::Bpt && !serves_b(winner) {
-            // The shared losers' images are the winner's paths; BPT's sums still serve MMLT's
-            // b above the switch where the winner's passes do not.
-            pool.add(*m, r, errors[i], false);
-        }
-    }
-    let (method, mut render) = pilots.swap_remove(best);
-    render.reseed(continuation_seed(seed));
+    let bpt_sums = match (serves_b(pilots[best].0), reference) {
+        (false, Some(k)) => (pilots[k].1.tally(), pilots[k].1.even.passes),
+        _ => (Vec::new(), 0),
+    };
+    let (method, render) = pilots.swap_remove(best);
     Chosen {
         method,
         render,
         candidates,
-        pool,
+        bpt_sums,
     }
 }
 
@@ -413,7 +370,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_shared_views_take_bpts_exponent_and_pt_keeps_its_own() {
+    fn the_bidirectional_views_take_bpts_exponent_and_pt_keeps_its_own() {
         let measured = [
             (Method::Pt, 0.6),
             (Method::Bpt, 0.5),

@@ -66,8 +66,6 @@ pub struct Reasons {
     pub mask_share: f64,
     /// The share of the time left that MMLT's pilot would take (`worth_a_pilot`).
     pub pilot_share: f64,
-    /// The losing pilots' shares of the OMC image, `method:passes:share` (`pool`; empty: none).
-    pub pooled: String,
 }
 
 /// What the rest of the budget goes to.

@@ -102,18 +102,6 @@ impl Film {
         }
     }
 
-    /// `self·k_self + other·k_other` for the direct and indirect sums (the depth tally is left
-    /// as it is): weighing independent estimates of one image, as the main job pools its
-    /// pilots (`mix::pool`).
-    pub fn blend(&mut self, k_self: f32, other: &Film, k_other: f32) {
-        for (a, b) in self.direct.iter_mut().zip(&other.direct) {
-            *a = *a * k_self + *b * k_other;
-        }
-        for (a, b) in self.indirect.iter_mut().zip(&other.indirect) {
-            *a = *a * k_self + *b * k_other;
-        }
-    }
-
     /// Add another film's sums (in a fixed order, so results do not depend on threads).
     pub fn accumulate(&mut self, other: &Film) {
         self.direct

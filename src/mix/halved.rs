@@ -20,17 +20,14 @@ pub(super) struct Halved {
     /// The even passes; `passes` and `seconds` count both halves.
     pub(super) even: Rendered,
     pub(super) odd: Film,
-    /// The seed its passes draw from: the job's.
-    seed: u64,
 }
 
 impl Halved {
     /// An empty render whose passes are tallied by depth (`DepthTally`, every pixel weight 1).
-    pub(super) fn new(w: usize, h: usize, max_depth: u32, seed: u64) -> Halved {
+    pub(super) fn new(w: usize, h: usize, max_depth: u32) -> Halved {
         let mut r = Halved {
             even: Rendered::empty(w, h),
             odd: Film::new(w, h),
-            seed,
         };
         r.tally_from_now(None, max_depth);
         r
@@ -59,21 +56,21 @@ impl Halved {
         cap: u64,
         label: &str,
     ) {
-        let (scene, s, seed) = (job.scene, job.s, self.seed);
+        let (scene, s) = (job.scene, job.s);
         let odd = &mut self.odd;
         let prev = std::mem::replace(&mut self.even, Rendered::empty(0, 0));
         self.even = continue_passes(prev, budget, cap, label, s.quiet, |i, film| {
             let film = if i % 2 == 0 { film } else { &mut *odd };
-            method.render_pass(scene, s.max_depth, seed, i, film)
+            method.render_pass(scene, s.max_depth, s.seed, i, film)
         });
     }
 
-    /// Go on with passes of BPT's sub-paths weighed as each of the bidirectional methods of
-    /// `views` at once (`bidir::render_views`), each into its own render, until `budget` is
-    /// spent: one render of each, from the same paths, for the cost of the method that joins
-    /// the most. The renders must hold the same passes of the same seed: the first one's count
-    /// numbers the passes of all. Every render's `seconds` is the whole time: the caller knows
-    /// what each method's passes cost alone.
+    /// Go on with passes of BPT's sub-paths weighed as each of the methods of `views` at once
+    /// (`bidir::render_views`; PT by a path tracer's strategies, `Method::view`), each into its
+    /// own render, until `budget` is spent: one render of each, from the same paths, for the
+    /// cost of the method that joins the most. The renders must hold the same passes (all of
+    /// the job's seed): the first one's count numbers the passes of all. Every render's
+    /// `seconds` is the whole time: the caller knows what each method's passes cost alone.
     pub(super) fn render_views(
         views: &mut [(Method, Halved)],
         job: &Job,
@@ -84,7 +81,7 @@ impl Halved {
         let Some(((_, first), rest)) = views.split_first_mut() else {
             return;
         };
-        let (scene, s, seed) = (job.scene, job.s, first.seed);
+        let (scene, s) = (job.scene, job.s);
         let odd = &mut first.odd;
         let prev = std::mem::replace(&mut first.even, Rendered::empty(0, 0));
         first.even = continue_passes(prev, budget, u64::MAX, label, s.quiet, |i, film| {
@@ -94,7 +91,7 @@ impl Halved {
             for (_, r) in rest.iter_mut() {
                 films.push(if even { &mut r.even.film } else { &mut r.odd });
             }
-            render_views(scene, &methods, s.max_depth, seed, i, &mut films)
+            render_views(scene, &methods, s.max_depth, s.seed, i, &mut films)
         });
         for (_, r) in rest.iter_mut() {
             let e = &first.even;

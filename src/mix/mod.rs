@@ -442,11 +442,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
 
     // 1. The OMC partner: the user's, or the pilot's winner, which keeps its passes.
     let (method, mut omc, pilot_b) = match s.omc.method() {
-        Some(m) => (
-            m,
-            Halved::new(job.w, job.h, s.max_depth, s.seed),
-            (Vec::new(), 0),
-        ),
+        Some(m) => (m, Halved::new(job.w, job.h, s.max_depth), (Vec::new(), 0)),
         None => {
             let c = pilot::partner(&job);
             reasons.partners = c.candidates;
@@ -993,7 +989,7 @@ mod tests {
             .map(|seed| {
                 let s = settings(&scene, method, seed);
                 let job = Job::new(&scene, &s).unwrap();
-                let mut r = Halved::new(w, h, scene.max_depth, seed);
+                let mut r = Halved::new(w, h, scene.max_depth);
                 r.render(&job, method, Budget::Passes(4), u64::MAX, "");
                 let before = r.even.passes;
                 r.tally_from_now(Some(alpha.as_slice().into()), scene.max_depth);

@@ -111,11 +111,10 @@ pub(super) struct Chosen {
 /// with it.
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
-    let seed = job.s.seed;
     let start = Instant::now();
     let mut pilots: Vec<(Method, Halved)> = CANDIDATES
         .iter()
-        .map(|m| (*m, Halved::new(w, h, job.s.max_depth, seed)))
+        .map(|m| (*m, Halved::new(w, h, job.s.max_depth)))
         .collect();
     let mut per_pass = Vec::new();
     for (m, r) in pilots.iter_mut() {
@@ -147,7 +146,6 @@ pub(super) fn partner(job: &Job) -> Chosen {
         })
         .collect();
     let exponents = shared_exponents(&measured);
-    let mut errors = Vec::new();
     let mut candidates = Vec::new();
     for (i, (m, r)) in pilots.iter().enumerate() {
         let missing = match reference {
@@ -156,7 +154,6 @@ pub(super) fn partner(job: &Job) -> Chosen {
         };
         let exponent = exponents[i];
         let e = variances[i] + missing;
-        errors.push(e);
         candidates.push(Candidate {
             method: *m,
             rate: e * r.even.seconds,

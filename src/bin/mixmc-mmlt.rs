@@ -6,8 +6,8 @@ use mixmc::Error;
 use mixmc::cli::{COMMAND_ATTR, RenderArgs, command_line, main_with, partial_note, render_exit};
 use mixmc::film::write_beauty_png;
 use mixmc::mmlt::{
-    DEFAULT_B_SPP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Importance, Mask, MmltSettings, check_memory,
-    default_bootstrap, mcmc_image, render,
+    DEFAULT_B_SPP, DEFAULT_BOOTSTRAP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Importance, Mask,
+    MmltSettings, check_memory, mcmc_image, render,
 };
 use mixmc::render::Budget;
 use mixmc::scene::Scene;
@@ -130,14 +130,19 @@ fn main() -> ExitCode {
             seed: args.render.seed,
             budget,
             chains: args.chains,
-            bootstrap: args.bootstrap.unwrap_or_else(|| {
-                default_bootstrap(budget, w * h, max_depth.saturating_sub(min_depth) + 1)
-            }),
+            // The user's, or by the budget and the depths below.
+            bootstrap: DEFAULT_BOOTSTRAP,
             b_spp: args.b_spp,
             large_step: args.large_step,
             sigma: args.sigma,
             kelemen_mis: args.kelemen_mis,
             quiet: args.render.quiet,
+        };
+        let settings = MmltSettings {
+            bootstrap: args
+                .bootstrap
+                .unwrap_or_else(|| settings.default_bootstrap(w * h)),
+            ..settings
         };
         check_memory(w, h, &settings, 1).map_err(|e| e.with_file(&args.scene))?;
         mixmc::signal::install();

@@ -906,7 +906,7 @@ fn set_header(
 mod tests {
     use super::*;
 
-    fn scene(name: &str) -> Scene {
+    pub(super) fn scene(name: &str) -> Scene {
         Scene::load(
             &Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("fixtures/scenes/{name}.json")),
         )
@@ -914,7 +914,7 @@ mod tests {
     }
 
     /// A measured job of one second with a given partner: small chains, a short bootstrap.
-    fn settings(scene: &Scene, method: Method, seed: u64) -> MixSettings {
+    pub(super) fn settings(scene: &Scene, method: Method, seed: u64) -> MixSettings {
         MixSettings {
             omc: Partner::from(method),
             seconds: 1.0,

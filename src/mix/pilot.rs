@@ -34,6 +34,36 @@ const K_MIN: f64 = 0.5;
 /// every candidate.
 const EXPONENT_PASSES: u64 = 8;
 
+/// Passes each candidate renders alone at the start of the partner pilot, timed one by one; the
+/// fastest is its cost per pass. A pass of LT at 256² takes about 40 ms, and one timed pass of
+/// it came out 25% slow in one cornell-torus job of nine at 120 s (50 ms against 38–41 ms in
+/// the others; BPT's 84–91 ms), which ranked LT 1.17× BPT where its other passes rank it 0.85–0.96×,
+/// and the job rendered BPT (LT alone scored 5% better than BPT alone on the study's seed:
+/// docs/main-job.md, twenty-sixth round). What slows a pass (another process, an interrupt) only adds time, so the fastest of
+/// two is the better measure of what the method costs; each further pass is one more of a
+/// loser's wasted.
+const TIMED_PASSES: u64 = 2;
+
+/// Render `TIMED_PASSES` passes of `m` alone into `r`, which holds none yet, and return the
+/// fastest one's seconds (all the seconds spent where an interrupted render holds none).
+fn timed_alone(r: &mut Halved, job: &Job, m: Method) -> f64 {
+    let label = format!("mix: pilot of {}", m.name());
+    let mut fastest = f64::INFINITY;
+    for _ in 0..TIMED_PASSES {
+        let (passes, seconds) = (r.even.passes, r.even.seconds);
+        r.render(job, m, Budget::Passes(1), u64::MAX, &label);
+        if r.even.passes > passes {
+            let each = (r.even.seconds - seconds) / (r.even.passes - passes) as f64;
+            fastest = fastest.min(each);
+        }
+    }
+    if fastest.is_finite() {
+        fastest
+    } else {
+        r.even.seconds
+    }
+}
+
 /// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
 /// is taken as 1/t. On cornell-water at 30 s (9 at half way of a pilot of 1.5 s) the pace came
 /// out at 0.5, the job gave MMLT 1.6 s more instead of about half the time, and scored 39.9
@@ -99,10 +129,11 @@ pub(super) struct Chosen {
     pub(super) bpt_sums: (Vec<f64>, u64),
 }
 
-/// One pilot shared by every candidate (`CANDIDATES`), of the job's seed. Its first pass is each
-/// candidate's alone, timed: what one of its passes costs, which the shared passes cannot tell
-/// (they pay for BPT's joins whatever they weigh), and for the bidirectional methods the same
-/// values its view would have had (`bidir::render_views`; PT's first pass is PT's own). The
+/// One pilot shared by every candidate (`CANDIDATES`), of the job's seed. Its first
+/// `TIMED_PASSES` are each candidate's alone, timed: what one of its passes costs, which the
+/// shared passes cannot tell (they pay for BPT's joins whatever they weigh), and for the
+/// bidirectional methods the same values its view would have had (`bidir::render_views`; PT's
+/// first passes are PT's own). The
 /// candidate whose error, projected from its pilot to the job's budget at its own measured pace
 /// (`exponent`), is smallest wins and goes on. A candidate's seconds are its passes at its own
 /// cost per pass: what its render would have cost alone. A candidate's error is its variance's
@@ -116,12 +147,10 @@ pub(super) fn partner(job: &Job) -> Chosen {
         .iter()
         .map(|m| (*m, Halved::new(w, h, job.s.max_depth)))
         .collect();
-    let mut per_pass = Vec::new();
-    for (m, r) in pilots.iter_mut() {
-        let label = format!("mix: pilot of {}", m.name());
-        r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
-        per_pass.push(r.even.seconds / r.even.passes.max(1) as f64);
-    }
+    let per_pass: Vec<f64> = pilots
+        .iter_mut()
+        .map(|(m, r)| timed_alone(r, job, *m))
+        .collect();
     let pilot = (PILOT * job.s.seconds).min(PILOT_MAX);
     let left = pilot - start.elapsed().as_secs_f64();
     let early = measured_pilot(&mut pilots, left, |p, budget| {
@@ -365,6 +394,26 @@ fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each candidate's solo passes are timed one by one and the fastest is its cost: never
+    /// more than their mean.
+    #[test]
+    fn a_candidates_cost_is_its_fastest_timed_pass() {
+        let scene = crate::mix::tests::scene("cornell-box-tiny");
+        let s = crate::mix::tests::settings(&scene, Method::Lt, 1);
+        let job = Job::new(&scene, &s).unwrap();
+        for m in CANDIDATES {
+            let mut r = Halved::new(job.w, job.h, s.max_depth);
+            let each = timed_alone(&mut r, &job, m);
+            assert_eq!(r.even.passes, TIMED_PASSES);
+            let mean = r.even.seconds / TIMED_PASSES as f64;
+            assert!(
+                each > 0.0 && each <= mean,
+                "{}: {each} against {mean}",
+                m.name()
+            );
+        }
+    }
 
     #[test]
     fn the_bidirectional_views_take_bpts_exponent_and_pt_keeps_its_own() {

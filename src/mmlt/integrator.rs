@@ -113,29 +113,8 @@ pub const DEFAULT_B_SPP: u64 = 32;
 /// Bootstrap samples per rendered depth by default, and the least a long render gets.
 pub const DEFAULT_BOOTSTRAP: usize = 100_000;
 /// A render of a fixed mutation count spends at least this share of its mutations on the
-/// bootstrap ([`default_bootstrap`]).
+/// bootstrap ([`MmltSettings::default_bootstrap`]).
 const BOOTSTRAP_SHARE: u64 = 20;
-
-/// Bootstrap samples per rendered depth unless the user says: [`DEFAULT_BOOTSTRAP`], or for a
-/// fixed count of `n` mutations per pixel a twentieth of the mutations if that is more (on
-/// `stress` at 10 000 per pixel, 35 s beside the chains' 707 s). The chains start where the
-/// bootstrap found light and forget it slowly where light is rare: on `stress` with a mask, the
-/// submerged box face (lit only by paths that hit the light through the water) came out 29–42%
-/// dark at 400 mutations per pixel with 100 000 samples per depth, and 6–8% with 1 000 000
-/// (BENCHMARKS.md, "Where MMLT's chains start"); on the Cornell torus with the job's mask, 1 000 000
-/// lowered both the shared error and the spread between seeds at 86 mutations per pixel. Time
-/// budgets keep the default: there the larger bootstrap would take more time than the chains
-/// (8.3 s against 4.7 s on the torus).
-pub fn default_bootstrap(budget: Budget, pixels: usize, depths: u32) -> usize {
-    match budget {
-        Budget::Passes(n) => {
-            let share =
-                n.saturating_mul(pixels as u64) / (BOOTSTRAP_SHARE * u64::from(depths.max(1)));
-            DEFAULT_BOOTSTRAP.max(usize::try_from(share).unwrap_or(usize::MAX))
-        }
-        Budget::Seconds(_) => DEFAULT_BOOTSTRAP,
-    }
-}
 
 /// Default probability of a large step (pbrt-v3's MLT default).
 pub const DEFAULT_LARGE_STEP: f32 = 0.3;
@@ -191,6 +170,27 @@ impl MmltSettings {
     /// below `min_depth`).
     pub fn depths(&self) -> std::ops::RangeInclusive<u32> {
         self.min_depth..=self.max_depth
+    }
+
+    /// Bootstrap samples per rendered depth unless the user says: [`DEFAULT_BOOTSTRAP`], or for
+    /// a fixed count of `n` mutations per pixel a twentieth of the mutations if that is more (on
+    /// `stress` at 10 000 per pixel, 35 s beside the chains' 707 s). The chains start where the
+    /// bootstrap found light and forget it slowly where light is rare: on `stress` with a mask,
+    /// the submerged box face (lit only by paths that hit the light through the water) came out
+    /// 29–42% dark at 400 mutations per pixel with 100 000 samples per depth, and 6–8% with
+    /// 1 000 000 (BENCHMARKS.md, "Where MMLT's chains start"); on the Cornell torus with the
+    /// job's mask, 1 000 000 lowered both the shared error and the spread between seeds at 86
+    /// mutations per pixel. Time budgets keep the default: there the larger bootstrap would take
+    /// more time than the chains (8.3 s against 4.7 s on the torus).
+    pub fn default_bootstrap(&self, pixels: usize) -> usize {
+        match self.budget {
+            Budget::Passes(n) => {
+                let depths = self.depths().count().max(1) as u64;
+                let share = n.saturating_mul(pixels as u64) / (BOOTSTRAP_SHARE * depths);
+                DEFAULT_BOOTSTRAP.max(usize::try_from(share).unwrap_or(usize::MAX))
+            }
+            Budget::Seconds(_) => DEFAULT_BOOTSTRAP,
+        }
     }
 }
 
@@ -882,9 +882,10 @@ fn normalisation(
 /// The cap is a bias, worn off only as the chains' large steps find those states, so it grows
 /// with the chains' number (each shorter): on `stress` with a mask of ε = 0.02, the submerged
 /// box face came out 29–42% dark with 256 chains and 44–46% with 2048, where plain resampling
-/// gave 20–56% with either (the rest of that error is the bootstrap's, [`default_bootstrap`]).
-/// Kept because it wins at equal time where the job mixes: plain resampling took the water's
-/// 30-s main job from 28–31 to 34–48 (BENCHMARKS.md, "Where MMLT's chains start").
+/// gave 20–56% with either (the rest of that error is the bootstrap's,
+/// [`MmltSettings::default_bootstrap`]). Kept because it wins at equal time where the job
+/// mixes: plain resampling took the water's 30-s main job from 28–31 to 34–48 (BENCHMARKS.md,
+/// "Where MMLT's chains start").
 fn capped_picks(weights: &[f32], k: usize, offset: f64) -> Vec<usize> {
     let mut c = k as f64 / weights.iter().map(|&y| y as f64).sum::<f64>();
     // Raising c until the capped probabilities sum to k: the set of capped samples only grows.
@@ -1079,8 +1080,8 @@ pub fn mcmc_image(
 #[cfg(test)]
 mod tests {
     use super::{
-        Budget, DEFAULT_BOOTSTRAP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, ExrImage, MltSampler, Scene,
-        Scratch, Target, capped_picks, default_bootstrap, evaluate, grouped_picks,
+        Budget, DEFAULT_BOOTSTRAP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, ExrImage, MltSampler,
+        MmltSettings, Scene, Scratch, Target, capped_picks, evaluate, grouped_picks,
     };
     use rayon::prelude::*;
     use std::path::Path;
@@ -1200,14 +1201,29 @@ mod tests {
     #[test]
     fn the_bootstrap_grows_with_a_long_render() {
         let px = 256 * 256;
-        assert_eq!(
-            default_bootstrap(Budget::Passes(64), px, 13),
-            DEFAULT_BOOTSTRAP
-        );
-        assert_eq!(default_bootstrap(Budget::Passes(10_000), px, 13), 2_520_615);
-        assert_eq!(
-            default_bootstrap(Budget::Seconds(3600.0), px, 13),
-            DEFAULT_BOOTSTRAP
-        );
+        // Thirteen depths, 0 to 12.
+        let with = |budget| MmltSettings {
+            min_depth: 0,
+            max_depth: 12,
+            seed: 1,
+            budget,
+            chains: 1,
+            bootstrap: 0,
+            b_spp: 0,
+            large_step: DEFAULT_LARGE_STEP,
+            sigma: DEFAULT_SIGMA,
+            kelemen_mis: false,
+            quiet: true,
+        };
+        let bootstrap = |budget| with(budget).default_bootstrap(px);
+        assert_eq!(bootstrap(Budget::Passes(64)), DEFAULT_BOOTSTRAP);
+        assert_eq!(bootstrap(Budget::Passes(10_000)), 2_520_615);
+        assert_eq!(bootstrap(Budget::Seconds(3600.0)), DEFAULT_BOOTSTRAP);
+        // Indirect light alone, depths 2 to 12: the same mutations over fewer depths.
+        let indirect = MmltSettings {
+            min_depth: 2,
+            ..with(Budget::Passes(10_000))
+        };
+        assert_eq!(indirect.default_bootstrap(px), 10_000 * px / (20 * 11));
     }
 }

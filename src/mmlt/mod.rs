@@ -11,5 +11,5 @@ pub mod sampler;
 pub use importance::Importance;
 pub use integrator::{
     DEFAULT_B_SPP, DEFAULT_BOOTSTRAP, DEFAULT_LARGE_STEP, DEFAULT_SIGMA, Mask, MmltResult, MmltRun,
-    MmltSettings, Target, check_memory, default_bootstrap, mcmc_image, render,
+    MmltSettings, Target, check_memory, mcmc_image, render,
 };

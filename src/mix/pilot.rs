@@ -37,11 +37,11 @@ const EXPONENT_PASSES: u64 = 8;
 /// Passes each candidate renders alone at the start of the partner pilot, timed one by one; the
 /// fastest is its cost per pass. A pass of LT at 256² takes about 40 ms, and one timed pass of
 /// it came out 25% slow in one cornell-torus job of nine at 120 s (50 ms against 38–41 ms in
-/// the others; BPT's 84–91 ms), which ranked LT 1.17× BPT where its other passes rank it 0.85–0.96×,
-/// and the job rendered BPT (LT alone scored 5% better than BPT alone on the study's seed:
-/// docs/main-job.md, twenty-sixth round). What slows a pass (another process, an interrupt) only adds time, so the fastest of
-/// two is the better measure of what the method costs; each further pass is one more of a
-/// loser's wasted.
+/// the others; BPT's 84–91 ms), which ranked LT 1.17× BPT where the other jobs ranked it
+/// 0.85–0.96×, and the job rendered BPT (LT alone scored 5% better than BPT alone on the
+/// study's seed: docs/main-job.md, twenty-sixth round). What slows a pass (another process, an
+/// interrupt) only adds time, so the fastest of two is the better measure of what the method
+/// costs; each further pass is one more of a loser's wasted.
 const TIMED_PASSES: u64 = 2;
 
 /// Render `TIMED_PASSES` passes of `m` alone into `r`, which holds none yet, and return the

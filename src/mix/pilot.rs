@@ -44,24 +44,29 @@ const EXPONENT_PASSES: u64 = 8;
 /// costs; each further pass is one more of a loser's wasted.
 const TIMED_PASSES: u64 = 2;
 
-/// Render `TIMED_PASSES` passes of `m` alone into `r`, which holds none yet, and return the
-/// fastest one's seconds (all the seconds spent where an interrupted render holds none).
-fn timed_alone(r: &mut Halved, job: &Job, m: Method) -> f64 {
-    let label = format!("mix: pilot of {}", m.name());
-    let mut fastest = f64::INFINITY;
+/// Render `TIMED_PASSES` passes of each candidate alone into its render, which holds none yet,
+/// and return each one's fastest pass in seconds (all the seconds spent where an interrupted
+/// render holds none). The passes go round the candidates, not one candidate's after another:
+/// a slow spell of the host lasts longer than one pass, and with a candidate's passes back to
+/// back both fell in it in 2 cornell-torus jobs of 24 at 120 s (LT 48 ms twice, against 39–42
+/// ms), which ranked LT 1.12× and 1.02× BPT and sent both jobs to BPT (docs/main-job.md,
+/// twenty-seventh round).
+fn timed_alone(pilots: &mut [(Method, Halved)], job: &Job) -> Vec<f64> {
+    let mut fastest = vec![f64::INFINITY; pilots.len()];
     for _ in 0..TIMED_PASSES {
-        let (passes, seconds) = (r.even.passes, r.even.seconds);
-        r.render(job, m, Budget::Passes(1), u64::MAX, &label);
-        if r.even.passes > passes {
-            let each = (r.even.seconds - seconds) / (r.even.passes - passes) as f64;
-            fastest = fastest.min(each);
+        for ((m, r), f) in pilots.iter_mut().zip(&mut fastest) {
+            let (passes, seconds) = (r.even.passes, r.even.seconds);
+            let label = format!("mix: pilot of {}", m.name());
+            r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
+            if r.even.passes > passes {
+                let each = (r.even.seconds - seconds) / (r.even.passes - passes) as f64;
+                *f = f.min(each);
+            }
         }
     }
-    if fastest.is_finite() {
-        fastest
-    } else {
-        r.even.seconds
-    }
+    (pilots.iter().zip(fastest))
+        .map(|((_, r), f)| if f.is_finite() { f } else { r.even.seconds })
+        .collect()
 }
 
 /// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
@@ -147,10 +152,7 @@ pub(super) fn partner(job: &Job) -> Chosen {
         .iter()
         .map(|m| (*m, Halved::new(w, h, job.s.max_depth)))
         .collect();
-    let per_pass: Vec<f64> = pilots
-        .iter_mut()
-        .map(|(m, r)| timed_alone(r, job, *m))
-        .collect();
+    let per_pass = timed_alone(&mut pilots, job);
     let pilot = (PILOT * job.s.seconds).min(PILOT_MAX);
     let left = pilot - start.elapsed().as_secs_f64();
     let early = measured_pilot(&mut pilots, left, |p, budget| {
@@ -402,9 +404,13 @@ mod tests {
         let scene = crate::mix::tests::scene("cornell-box-tiny");
         let s = crate::mix::tests::settings(&scene, Method::Lt, 1);
         let job = Job::new(&scene, &s).unwrap();
-        for m in CANDIDATES {
-            let mut r = Halved::new(job.w, job.h, s.max_depth);
-            let each = timed_alone(&mut r, &job, m);
+        let mut pilots: Vec<(Method, Halved)> = CANDIDATES
+            .iter()
+            .map(|m| (*m, Halved::new(job.w, job.h, s.max_depth)))
+            .collect();
+        let costs = timed_alone(&mut pilots, &job);
+        assert_eq!(costs.len(), CANDIDATES.len());
+        for ((m, r), each) in pilots.iter().zip(costs) {
             assert_eq!(r.even.passes, TIMED_PASSES);
             let mean = r.even.seconds / TIMED_PASSES as f64;
             assert!(

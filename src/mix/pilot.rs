@@ -44,6 +44,13 @@ const EXPONENT_PASSES: u64 = 8;
 /// costs; each further pass is one more of a loser's wasted.
 const TIMED_PASSES: u64 = 2;
 
+/// One empty render for each of `CANDIDATES`.
+fn empty_pilots(job: &Job) -> Vec<(Method, Halved)> {
+    (CANDIDATES.iter())
+        .map(|m| (*m, Halved::new(job.w, job.h, job.s.max_depth)))
+        .collect()
+}
+
 /// Render `TIMED_PASSES` passes of each candidate alone into its render, which holds none yet,
 /// and return each one's fastest pass in seconds (all the seconds spent where an interrupted
 /// render holds none). The passes go round the candidates, not one candidate's after another:
@@ -148,10 +155,7 @@ pub(super) struct Chosen {
 pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
     let start = Instant::now();
-    let mut pilots: Vec<(Method, Halved)> = CANDIDATES
-        .iter()
-        .map(|m| (*m, Halved::new(w, h, job.s.max_depth)))
-        .collect();
+    let mut pilots = empty_pilots(job);
     let per_pass = timed_alone(&mut pilots, job);
     let pilot = (PILOT * job.s.seconds).min(PILOT_MAX);
     let left = pilot - start.elapsed().as_secs_f64();
@@ -404,10 +408,7 @@ mod tests {
         let scene = crate::mix::tests::scene("cornell-box-tiny");
         let s = crate::mix::tests::settings(&scene, Method::Lt, 1);
         let job = Job::new(&scene, &s).unwrap();
-        let mut pilots: Vec<(Method, Halved)> = CANDIDATES
-            .iter()
-            .map(|m| (*m, Halved::new(job.w, job.h, s.max_depth)))
-            .collect();
+        let mut pilots = empty_pilots(&job);
         let costs = timed_alone(&mut pilots, &job);
         assert_eq!(costs.len(), CANDIDATES.len());
         for ((m, r), each) in pilots.iter().zip(costs) {

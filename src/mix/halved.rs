@@ -8,6 +8,7 @@ use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
 use crate::integrators::bidir::{Strategies, render_views};
+use crate::math::Rgb;
 use crate::mmlt::MmltRun;
 use crate::render::{Budget, Rendered, continue_passes};
 
@@ -97,6 +98,48 @@ impl Halved {
             let e = &first.even;
             (r.even.passes, r.even.seconds, r.even.rays, r.even.partial) =
                 (e.passes, e.seconds, e.rays, e.partial);
+        }
+    }
+
+    /// A copy of the render's sums and passes as they stand, without its tally: what `since`
+    /// takes away.
+    pub(super) fn snapshot(&self) -> Halved {
+        let copy = |f: &Film| Film {
+            tally: None,
+            ..f.clone()
+        };
+        self.rebuilt(copy(&self.even.film), copy(&self.odd), self.even.passes)
+    }
+
+    /// The passes rendered since `earlier` (a `snapshot` of this render taken at an even count,
+    /// so that each half of the difference is still this render's even or odd passes), as a
+    /// render of their own, without a tally.
+    pub(super) fn since(&self, earlier: &Halved) -> Halved {
+        let minus = |now: &Film, then: &Film| {
+            let sub = |a: &[Rgb], b: &[Rgb]| a.iter().zip(b).map(|(x, y)| *x - *y).collect();
+            Film {
+                direct: sub(&now.direct, &then.direct),
+                indirect: sub(&now.indirect, &then.indirect),
+                tally: None,
+                ..Film::new(0, 0)
+            }
+        };
+        let even = minus(&self.even.film, &earlier.even.film);
+        let odd = minus(&self.odd, &earlier.odd);
+        self.rebuilt(even, odd, self.even.passes - earlier.even.passes)
+    }
+
+    /// A render of these halves and passes, sized as this one.
+    fn rebuilt(&self, mut even: Film, mut odd: Film, passes: u64) -> Halved {
+        (even.width, even.height) = (self.odd.width, self.odd.height);
+        (odd.width, odd.height) = (self.odd.width, self.odd.height);
+        Halved {
+            even: Rendered {
+                film: even,
+                passes,
+                ..Rendered::empty(0, 0)
+            },
+            odd,
         }
     }
 
@@ -285,5 +328,39 @@ impl OmcErrors {
         } else {
             0.0
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mix::tests::{scene, settings};
+
+    /// What a render holds since a snapshot, added back to the snapshot, is the render.
+    #[test]
+    fn a_render_since_its_snapshot_adds_back_to_it() {
+        let scene = scene("cornell-box-tiny");
+        let s = settings(&scene, Method::Lt, 1);
+        let job = Job::new(&scene, &s).unwrap();
+        let mut r = Halved::new(job.w, job.h, s.max_depth);
+        r.render(&job, Method::Pt, Budget::Passes(4), u64::MAX, "test");
+        let then = r.snapshot();
+        r.render(&job, Method::Pt, Budget::Passes(3), u64::MAX, "test");
+        let since = r.since(&then);
+        assert_eq!((then.half_passes(), since.half_passes()), ([2, 2], [2, 1]));
+        let (mut sum, whole) = (then.whole().film, r.whole().film);
+        sum.accumulate(&since.whole().film);
+        let parts = |f: &Film| [f.direct.clone(), f.indirect.clone()].concat();
+        for (a, b) in parts(&sum).iter().zip(parts(&whole)) {
+            assert!((*a - b).abs().max_element() <= 1e-5 * (1.0 + b.max_element()));
+        }
+        assert!(
+            since
+                .whole()
+                .film
+                .indirect
+                .iter()
+                .any(|c| c.max_element() > 0.0)
+        );
     }
 }

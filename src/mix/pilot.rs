@@ -212,9 +212,10 @@ pub(super) fn partner(job: &Job) -> Chosen {
     }
 }
 
-/// Run `render(pilots, budget)` for half of `seconds`, measure each pilot's error there (the
-/// first point of its convergence, `exponent`), then on to `seconds`; two passes at least, as
-/// the halves need one each. Returns each pilot's (passes, error) half way.
+/// Run `render(pilots, budget)` for half of `seconds` (to an even count of passes, two at
+/// least, as the halves need one each), then as many passes again. Returns each pilot's first
+/// point of its convergence (`exponent`): (passes, error) at half its passes, from both halves
+/// in time (`first_point`).
 fn measured_pilot(
     pilots: &mut [(Method, Halved)],
     seconds: f64,
@@ -222,19 +223,41 @@ fn measured_pilot(
 ) -> Vec<(u64, f64)> {
     let start = Instant::now();
     render(pilots, Budget::Passes(2));
-    let mut render_to = |p: &mut [(Method, Halved)], end: f64| {
-        let more = end - start.elapsed().as_secs_f64();
-        if more > 0.0 && !p[0].1.even.partial {
-            render(p, Budget::Seconds(more));
-        }
-    };
-    render_to(pilots, 0.5 * seconds);
-    let points = pilots
-        .iter()
-        .map(|(_, r)| (r.even.passes, mean(&r.errors(None, &r.level()))))
-        .collect();
-    render_to(pilots, seconds);
-    points
+    let left = 0.5 * seconds - start.elapsed().as_secs_f64();
+    if left > 0.0 && !pilots[0].1.even.partial {
+        render(pilots, Budget::Seconds(left));
+    }
+    let first = pilots[0].1.even.passes;
+    if first % 2 == 1 && !pilots[0].1.even.partial {
+        render(pilots, Budget::Passes(1));
+    }
+    let half_way: Vec<Halved> = pilots.iter().map(|(_, r)| r.snapshot()).collect();
+    if !pilots[0].1.even.partial {
+        render(pilots, Budget::Passes(half_way[0].even.passes));
+    }
+    (pilots.iter().zip(&half_way))
+        .map(|((_, r), then)| first_point(error_now(then), error_now(&r.since(then))))
+        .collect()
+}
+
+/// A render's passes and its image-mean error as it stands, linearised at its own level.
+fn error_now(r: &Halved) -> (u64, f64) {
+    (r.even.passes, mean(&r.errors(None, &r.level())))
+}
+
+/// The error at half of the pilot's passes: the mean of the first half's and the second
+/// half's, each a render on its own at its own level. From the first half alone, a firefly in
+/// the second half lowered the exponent of every view and one in the first raised it: the
+/// bidirectional views' shared exponent came out 0.57–1.00 over 24 cornell-torus jobs at 120 s,
+/// and those below about 0.66 ranked BPT ahead of LT (docs/main-job.md, twenty-eighth round).
+/// Here a firefly adds to both points what 1/passes does. A second half cut short (the user
+/// interrupted) leaves the first alone.
+fn first_point((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> (u64, f64) {
+    if n2 == n1 {
+        (n1, 0.5 * (e1 + e2))
+    } else {
+        (n1, e1)
+    }
 }
 
 /// MMLT's pilot on α·I: its start-up (bounded by half of what is left), then a share of rounds,
@@ -420,6 +443,29 @@ mod tests {
                 m.name()
             );
         }
+    }
+
+    /// The pilot's second half holds as many passes as its first, and the first point is the
+    /// mean of both halves' errors, each a render on its own: the first half rendered again
+    /// from its seed, the second the whole less it.
+    #[test]
+    fn the_first_point_is_both_halves_in_time_at_half_the_passes() {
+        let scene = crate::mix::tests::scene("cornell-box-tiny");
+        let s = crate::mix::tests::settings(&scene, Method::Lt, 1);
+        let job = Job::new(&scene, &s).unwrap();
+        let views = |p: &mut [(Method, Halved)], b| Halved::render_views(p, &job, b, "test");
+        let mut pilots = empty_pilots(&job);
+        let points = measured_pilot(&mut pilots, 0.05, views);
+        let passes = pilots[0].1.even.passes;
+        let mut first = empty_pilots(&job);
+        views(&mut first, Budget::Passes(passes / 2));
+        for (((m, r), (_, f)), (n, e)) in pilots.iter().zip(&first).zip(points) {
+            assert_eq!((n, n % 2), (passes / 2, 0), "{}", m.name());
+            let (e1, e2) = (error_now(f).1, error_now(&r.since(f)).1);
+            assert!(e1.is_finite() && e2.is_finite() && e1 != e2, "{}", m.name());
+            assert!((e - 0.5 * (e1 + e2)).abs() <= 1e-9 * e, "{}", m.name());
+        }
+        assert_eq!(first_point((6, 3.0), (5, 1.0)), (6, 3.0));
     }
 
     #[test]

@@ -34,16 +34,6 @@ const K_MIN: f64 = 0.5;
 /// every candidate.
 const EXPONENT_PASSES: u64 = 8;
 
-/// Passes each candidate renders alone at the start of the partner pilot, timed one by one; the
-/// fastest is its cost per pass. A pass of LT at 256² takes about 40 ms, and one timed pass of
-/// it came out 25% slow in one cornell-torus job of nine at 120 s (50 ms against 38–41 ms in
-/// the others; BPT's 84–91 ms), which ranked LT 1.17× BPT where the other jobs ranked it
-/// 0.85–0.96×, and the job rendered BPT (LT alone scored 5% better than BPT alone on the
-/// study's seed: docs/main-job.md, twenty-sixth round). What slows a pass (another process, an
-/// interrupt) only adds time, so the fastest of two is the better measure of what the method
-/// costs; each further pass is one more of a loser's wasted.
-const TIMED_PASSES: u64 = 2;
-
 /// One empty render for each of `CANDIDATES`.
 fn empty_pilots(job: &Job) -> Vec<(Method, Halved)> {
     (CANDIDATES.iter())
@@ -51,29 +41,66 @@ fn empty_pilots(job: &Job) -> Vec<(Method, Halved)> {
         .collect()
 }
 
-/// Render `TIMED_PASSES` passes of each candidate alone into its render, which holds none yet,
-/// and return each one's fastest pass in seconds (all the seconds spent where an interrupted
-/// render holds none). The passes go round the candidates, not one candidate's after another:
-/// a slow spell of the host lasts longer than one pass, and with a candidate's passes back to
-/// back both fell in it in 2 cornell-torus jobs of 24 at 120 s (LT 48 ms twice, against 39–42
-/// ms), which ranked LT 1.12× and 1.02× BPT and sent both jobs to BPT (docs/main-job.md,
-/// twenty-seventh round).
-fn timed_alone(pilots: &mut [(Method, Halved)], job: &Job) -> Vec<f64> {
-    let mut fastest = vec![f64::INFINITY; pilots.len()];
-    for _ in 0..TIMED_PASSES {
-        for ((m, r), f) in pilots.iter_mut().zip(&mut fastest) {
-            let (passes, seconds) = (r.even.passes, r.even.seconds);
+/// One timed pass: its wall-clock seconds and the seconds of CPU time the process spent in it.
+#[derive(Clone, Copy, Debug)]
+struct Timed {
+    wall: f64,
+    cpu: f64,
+}
+
+/// Render one pass of each candidate alone into its render, timed. The partner pilot times one
+/// such pass at its start and one at its end (`costs`).
+fn timed_alone(pilots: &mut [(Method, Halved)], job: &Job) -> Vec<Timed> {
+    (pilots.iter_mut())
+        .map(|(m, r)| {
+            let (seconds, cpu) = (r.even.seconds, cpu_seconds());
             let label = format!("mix: pilot of {}", m.name());
             r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
-            if r.even.passes > passes {
-                let each = (r.even.seconds - seconds) / (r.even.passes - passes) as f64;
-                *f = f.min(each);
+            Timed {
+                wall: r.even.seconds - seconds,
+                cpu: cpu_seconds() - cpu,
             }
-        }
-    }
-    (pilots.iter().zip(fastest))
-        .map(|((_, r), f)| if f.is_finite() { f } else { r.even.seconds })
+        })
         .collect()
+}
+
+/// Each candidate's seconds per pass from its timed passes (`rounds`, one `timed_alone` each):
+/// its fewest CPU seconds in one of them, at the wall clock's pace over all of them (their wall
+/// seconds ÷ their CPU seconds). A pass of LT at 256² takes about 40 ms of wall clock, and
+/// while the process waits for a core (another process, our progress bar's thread) the clock
+/// runs and the CPU time does not: over 48 passes of LT on cornell-torus at 120 s, 7 took
+/// 45–51 ms of wall clock with 38–42 ms of CPU time ÷ 2 threads, and both of LT's timed passes
+/// fell in such a wait in 1–3 jobs of 24 (the fastest of two by the clock), which ranked LT
+/// 1.01–1.17× BPT where the other jobs ranked it 0.85–1.00×, and sent them to BPT (LT alone
+/// scores 4% better than BPT alone there: docs/main-job.md, twenty-sixth to twenty-eighth
+/// rounds). CPU time also leaves out a method's own idle threads (its serial parts): 2–5% of a
+/// pass of LT or BPT there, which the ranking can bear; the common pace puts each cost back on
+/// the clock the budget is counted in.
+fn costs(rounds: &[Vec<Timed>]) -> Vec<f64> {
+    let all = rounds.iter().flatten();
+    let (wall, cpu) = all.fold((0.0, 0.0), |(w, c), t| (w + t.wall, c + t.cpu));
+    let fewest = |i: usize, of: fn(&Timed) -> f64| {
+        (rounds.iter()).fold(f64::INFINITY, |least, r| least.min(of(&r[i])))
+    };
+    (0..rounds.first().map_or(0, Vec::len))
+        .map(|i| match cpu > 0.0 {
+            true => wall / cpu * fewest(i, |t| t.cpu),
+            false => fewest(i, |t| t.wall),
+        })
+        .collect()
+}
+
+/// The CPU time this process has used, all threads, in seconds.
+fn cpu_seconds() -> f64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid, writable timespec for the call's duration, and
+    // CLOCK_PROCESS_CPUTIME_ID is a clock every Linux kernel we build for provides; on failure
+    // `t` stays zero and the costs fall back to the wall clock (`costs`).
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
 }
 
 /// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
@@ -141,12 +168,12 @@ pub(super) struct Chosen {
     pub(super) bpt_sums: (Vec<f64>, u64),
 }
 
-/// One pilot shared by every candidate (`CANDIDATES`), of the job's seed. Its first
-/// `TIMED_PASSES` are each candidate's alone, timed: what one of its passes costs, which the
-/// shared passes cannot tell (they pay for BPT's joins whatever they weigh), and for the
-/// bidirectional methods the same values its view would have had (`bidir::render_views`; PT's
-/// first passes are PT's own). The
-/// candidate whose error, projected from its pilot to the job's budget at its own measured pace
+/// One pilot shared by every candidate (`CANDIDATES`), of the job's seed. Its first pass and
+/// its last are each candidate's alone, timed (`timed_alone`, `costs`): what one of its passes
+/// costs, which the shared passes cannot tell (they pay for BPT's joins whatever they weigh),
+/// and for the bidirectional methods the same values its view would have had
+/// (`bidir::render_views`; PT's are PT's own). The candidate whose error, projected from its
+/// pilot to the job's budget at its own measured pace
 /// (`exponent`), is smallest wins and goes on. A candidate's seconds are its passes at its own
 /// cost per pass: what its render would have cost alone. A candidate's error is its variance's
 /// plus the light it has missing against BPT's view (`estimate::missing_light`; BPT holds every
@@ -156,13 +183,14 @@ pub(super) fn partner(job: &Job) -> Chosen {
     let (w, h) = (job.w, job.h);
     let start = Instant::now();
     let mut pilots = empty_pilots(job);
-    let per_pass = timed_alone(&mut pilots, job);
+    let first = timed_alone(&mut pilots, job);
     let pilot = (PILOT * job.s.seconds).min(PILOT_MAX);
-    let left = pilot - start.elapsed().as_secs_f64();
+    let left = pilot - start.elapsed().as_secs_f64() - first.iter().map(|t| t.wall).sum::<f64>();
     let early = measured_pilot(&mut pilots, left, |p, budget| {
         Halved::render_views(p, job, budget, "mix: pilot of bpt, ibpt, lt, pt")
     });
-    for ((_, r), t) in pilots.iter_mut().zip(per_pass) {
+    let last = timed_alone(&mut pilots, job);
+    for ((_, r), t) in pilots.iter_mut().zip(costs(&[first, last])) {
         r.even.seconds = t * r.even.passes as f64;
     }
     let reference = pilots.iter().position(|(m, _)| *m == Method::Bpt);
@@ -424,25 +452,43 @@ fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -
 mod tests {
     use super::*;
 
-    /// Each candidate's solo passes are timed one by one and the fastest is its cost: never
-    /// more than their mean.
+    /// Each candidate's timed pass is one pass of its own: the seconds it took, and CPU time.
     #[test]
-    fn a_candidates_cost_is_its_fastest_timed_pass() {
+    fn a_timed_pass_is_one_of_each_candidate_alone() {
         let scene = crate::mix::tests::scene("cornell-box-tiny");
         let s = crate::mix::tests::settings(&scene, Method::Lt, 1);
         let job = Job::new(&scene, &s).unwrap();
         let mut pilots = empty_pilots(&job);
-        let costs = timed_alone(&mut pilots, &job);
-        assert_eq!(costs.len(), CANDIDATES.len());
-        for ((m, r), each) in pilots.iter().zip(costs) {
-            assert_eq!(r.even.passes, TIMED_PASSES);
-            let mean = r.even.seconds / TIMED_PASSES as f64;
+        let first = timed_alone(&mut pilots, &job);
+        let last = timed_alone(&mut pilots, &job);
+        assert_eq!(
+            (first.len(), last.len()),
+            (CANDIDATES.len(), CANDIDATES.len())
+        );
+        for (((m, r), a), b) in pilots.iter().zip(first).zip(last) {
+            assert_eq!(r.even.passes, 2, "{}", m.name());
+            assert!(a.cpu > 0.0 && b.cpu > 0.0, "{}", m.name());
             assert!(
-                each > 0.0 && each <= mean,
-                "{}: {each} against {mean}",
+                (a.wall + b.wall - r.even.seconds).abs() <= 1e-9,
+                "{}",
                 m.name()
             );
         }
+    }
+
+    /// A candidate's cost is its fewest CPU seconds at the clock's pace over all the passes: a
+    /// pass the clock alone shows slow (the process waiting for a core) does not raise it.
+    #[test]
+    fn a_candidates_cost_is_its_fewest_cpu_seconds_at_the_clocks_pace() {
+        let t = |wall, cpu| Timed { wall, cpu };
+        // The second candidate's first pass waited 0.3 s for a core.
+        let first = vec![t(0.2, 0.4), t(0.4, 0.2)];
+        let last = vec![t(0.2, 0.4), t(0.1, 0.2)];
+        let pace = 0.9 / 1.2;
+        let c = costs(&[first, last]);
+        assert!((c[0] - 0.4 * pace).abs() < 1e-12 && (c[1] - 0.2 * pace).abs() < 1e-12);
+        // Without CPU time, the fewest wall seconds.
+        assert_eq!(costs(&[vec![t(0.3, 0.0)], vec![t(0.2, 0.0)]]), [0.2]);
     }
 
     /// The pilot's second half holds as many passes as its first, and the first point is the

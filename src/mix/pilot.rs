@@ -133,9 +133,9 @@ fn exponent((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> f64 {
     ((e1 / e2).ln() / (n2 as f64 / n1 as f64).ln()).clamp(K_MIN, 1.0)
 }
 
-/// Each pilot's exponent as the ranking uses it. The shared views are one set of paths: when a
-/// firefly turns up in the second half of the pilot it lowers every view's measured exponent,
-/// each by the chance of its own weights. The bidirectional views take one exponent, the view
+/// Each pilot's exponent as the ranking uses it. The shared views are one set of paths: a
+/// firefly in the pilot moves every view's measured exponent, each by the chance of its own
+/// weights. The bidirectional views take one exponent, the view
 /// that holds every strategy's (BPT's): on `caustic` (a glass sphere's caustic, 128²) BPT's 0.50
 /// against LT's 0.74 sent a job to LT with 1.7× BPT's rate, and LT alone had 1.7× BPT's error at
 /// 30 s (docs/main-job.md, fifteenth round). PT keeps its own: its fireflies are the paths that

@@ -67,8 +67,8 @@ fn timed_alone(pilots: &mut [(Method, Halved)], job: &Job) -> Vec<Timed> {
 /// Each candidate's seconds per pass from its timed passes (`rounds`, one `timed_alone` each):
 /// its fewest CPU seconds in one of them, at the wall clock's pace over all of them (their wall
 /// seconds ÷ their CPU seconds). A pass of LT at 256² takes about 40 ms of wall clock, and
-/// while the process waits for a core (another process; perhaps our progress bar's thread) the
-/// clock runs and the CPU time does not: over 48 passes of LT on cornell-torus at 120 s, 6 took
+/// while the process waits for a core (another process, the host's own work) the clock runs
+/// and the CPU time does not: over 48 passes of LT on cornell-torus at 120 s, 6 took
 /// 45–51 ms of wall clock with 38–44 ms of CPU time ÷ 2 threads, and both of LT's timed passes
 /// fell in such a wait in 1–3 jobs of 24 (the fastest of two by the clock), which ranked LT
 /// 1.01–1.17× BPT where the other jobs ranked it 0.85–1.00×, and sent them to BPT (LT alone

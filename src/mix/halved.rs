@@ -104,11 +104,8 @@ impl Halved {
     /// A copy of the render's sums and passes as they stand, without its tally: what `since`
     /// takes away.
     pub(super) fn snapshot(&self) -> Halved {
-        let copy = |f: &Film| Film {
-            tally: None,
-            ..f.clone()
-        };
-        self.rebuilt(copy(&self.even.film), copy(&self.odd), self.even.passes)
+        let copy = |f: &Film| sums(f, f.direct.clone(), f.indirect.clone());
+        Halved::of(copy(&self.even.film), copy(&self.odd), self.even.passes)
     }
 
     /// The passes rendered since `earlier` (a `snapshot` of this render taken at an even count,
@@ -117,22 +114,19 @@ impl Halved {
     pub(super) fn since(&self, earlier: &Halved) -> Halved {
         let minus = |now: &Film, then: &Film| {
             let sub = |a: &[Rgb], b: &[Rgb]| a.iter().zip(b).map(|(x, y)| *x - *y).collect();
-            Film {
-                direct: sub(&now.direct, &then.direct),
-                indirect: sub(&now.indirect, &then.indirect),
-                tally: None,
-                ..Film::new(0, 0)
-            }
+            sums(
+                now,
+                sub(&now.direct, &then.direct),
+                sub(&now.indirect, &then.indirect),
+            )
         };
         let even = minus(&self.even.film, &earlier.even.film);
         let odd = minus(&self.odd, &earlier.odd);
-        self.rebuilt(even, odd, self.even.passes - earlier.even.passes)
+        Halved::of(even, odd, self.even.passes - earlier.even.passes)
     }
 
-    /// A render of these halves and passes, sized as this one.
-    fn rebuilt(&self, mut even: Film, mut odd: Film, passes: u64) -> Halved {
-        (even.width, even.height) = (self.odd.width, self.odd.height);
-        (odd.width, odd.height) = (self.odd.width, self.odd.height);
+    /// A render of these halves holding `passes` in all.
+    fn of(even: Film, odd: Film, passes: u64) -> Halved {
         Halved {
             even: Rendered {
                 film: even,
@@ -249,6 +243,17 @@ impl Halved {
         let whole = self.whole();
         let beauty = whole.film.beauty_mean(whole.passes);
         crate::metrics::smooth(&beauty, whole.film.width, whole.film.height)
+    }
+}
+
+/// A film of `like`'s size holding these sums and no tally.
+fn sums(like: &Film, direct: Vec<Rgb>, indirect: Vec<Rgb>) -> Film {
+    Film {
+        width: like.width,
+        height: like.height,
+        direct,
+        indirect,
+        tally: None,
     }
 }
 

@@ -5,6 +5,7 @@ use super::estimate::{mcmc_alone_factors, missing_light};
 use super::halved::{Halved, OmcErrors, mean};
 use super::plan::{Candidate, Choice, Decision, Quadratic, Rates, decide};
 use super::{Job, MCMC_PILOT, serves_b};
+use crate::cli::process_cpu_seconds;
 use crate::integrators::Method;
 use crate::mmlt::{MmltRun, MmltSettings, Target};
 use crate::render::Budget;
@@ -53,12 +54,12 @@ struct Timed {
 fn timed_alone(pilots: &mut [(Method, Halved)], job: &Job) -> Vec<Timed> {
     (pilots.iter_mut())
         .map(|(m, r)| {
-            let (seconds, cpu) = (r.even.seconds, cpu_seconds());
+            let (seconds, cpu) = (r.even.seconds, process_cpu_seconds());
             let label = format!("mix: pilot of {}", m.name());
             r.render(job, *m, Budget::Passes(1), u64::MAX, &label);
             Timed {
                 wall: r.even.seconds - seconds,
-                cpu: cpu_seconds() - cpu,
+                cpu: process_cpu_seconds() - cpu,
             }
         })
         .collect()
@@ -82,25 +83,16 @@ fn costs(rounds: &[Vec<Timed>]) -> Vec<f64> {
     let fewest = |i: usize, of: fn(&Timed) -> f64| {
         (rounds.iter()).fold(f64::INFINITY, |least, r| least.min(of(&r[i])))
     };
+    // Where the CPU clock cannot be read (NaN, `process_cpu_seconds`), the fastest by the clock.
     (0..rounds.first().map_or(0, Vec::len))
-        .map(|i| match cpu > 0.0 {
-            true => wall / cpu * fewest(i, |t| t.cpu),
-            false => fewest(i, |t| t.wall),
+        .map(|i| {
+            if cpu > 0.0 {
+                wall / cpu * fewest(i, |t| t.cpu)
+            } else {
+                fewest(i, |t| t.wall)
+            }
         })
         .collect()
-}
-
-/// The CPU time this process has used, all threads, in seconds.
-fn cpu_seconds() -> f64 {
-    let mut t = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `t` is a valid, writable timespec for the call's duration, and
-    // CLOCK_PROCESS_CPUTIME_ID is a clock every Linux kernel we build for provides; on failure
-    // `t` stays zero and the costs fall back to the wall clock (`costs`).
-    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
-    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
 }
 
 /// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
@@ -487,8 +479,9 @@ mod tests {
         let pace = 0.9 / 1.2;
         let c = costs(&[first, last]);
         assert!((c[0] - 0.4 * pace).abs() < 1e-12 && (c[1] - 0.2 * pace).abs() < 1e-12);
-        // Without CPU time, the fewest wall seconds.
-        assert_eq!(costs(&[vec![t(0.3, 0.0)], vec![t(0.2, 0.0)]]), [0.2]);
+        // Without CPU time (the clock unread: NaN), the fewest wall seconds.
+        let nan = f64::NAN;
+        assert_eq!(costs(&[vec![t(0.3, nan)], vec![t(0.2, nan)]]), [0.2]);
     }
 
     /// The pilot's second half holds as many passes as its first, and the first point is the

@@ -36,10 +36,10 @@ pub fn complex_fraction(alpha: &[f32]) -> f64 {
 }
 
 /// Eq. (2) per pixel: `d + i_omc·(1 − α) + i_mcmc`, into `d` (a 4K frame's result is 100 MB
-/// of fresh memory otherwise); with OMC weight `k` (`weights`' inside or outside, by the pixel's
-/// side of the mask), `d + i_omc·(1 − α + α·k) + i_mcmc·(1 − k)`, which keeps the expectation as
-/// `i_mcmc` estimates α·I: inside the mask (α = 1) `d + k·i_omc + (1 − k)·i_mcmc`. `k` = 0 is
-/// eq. (2) bit for bit.
+/// of fresh memory otherwise); with OMC weight `k` (`weights` at the pixel),
+/// `d + i_omc·(1 − α + α·k) + i_mcmc·(1 − k)`, which keeps the expectation as `i_mcmc`
+/// estimates α·I: inside the mask (α = 1) `d + k·i_omc + (1 − k)·i_mcmc`. `k` = 0 is eq. (2)
+/// bit for bit.
 pub fn equation2(
     d: &mut [[f32; 3]],
     i_omc: &[[f32; 3]],
@@ -48,16 +48,13 @@ pub fn equation2(
     weights: OmcWeights,
 ) {
     d.par_iter_mut()
+        .enumerate()
         .zip(i_omc)
         .zip(alpha)
         .zip(i_mcmc)
         .with_min_len(PIXEL_CHUNK)
-        .for_each(|(((d, i), a), m)| {
-            let k = if is_complex(*a) {
-                weights.inside
-            } else {
-                weights.outside
-            };
+        .for_each(|((((p, d), i), a), m)| {
+            let k = weights.at(p, *a);
             for c in 0..3 {
                 d[c] = d[c] + i[c] * (1.0 - a + a * k) + m[c] * (1.0 - k);
             }
@@ -85,13 +82,13 @@ pub fn mask_borders(alpha: &[f32], width: usize, height: usize) -> Vec<bool> {
 
 /// Compositor settings.
 #[derive(Clone, Copy, Debug)]
-pub struct Options {
+pub struct Options<'a> {
     /// Run FXAA on the mask's borders.
     pub fxaa: bool,
     /// Switch to MCMC only when the complex fraction exceeds this.
     pub switch: f64,
     /// OMC's weights in eq. (2) (`equation2`); zero is eq. (2).
-    pub omc_weights: OmcWeights,
+    pub omc_weights: OmcWeights<'a>,
 }
 
 /// The weight `k` of OMC's indirect light in the composite, MMLT's image getting `1 − k`, on
@@ -100,10 +97,50 @@ pub struct Options {
 /// Outside the mask MMLT's ε-weighted chains add ε·I, which helps where they see that light
 /// better than OMC does (the bathroom) and costs where OMC's is the better estimate (the torus
 /// at 120 s: 0.28 of 3.71 MSE).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct OmcWeights {
-    pub inside: f32,
-    pub outside: f32,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OmcWeights<'a> {
+    /// One weight inside the mask and one outside it.
+    Sides { inside: f32, outside: f32 },
+    /// One weight per pixel (the main job's `weights.exr`).
+    Pixels(&'a [f32]),
+}
+
+impl Default for OmcWeights<'_> {
+    /// Eq. (2).
+    fn default() -> Self {
+        OmcWeights::Sides {
+            inside: 0.0,
+            outside: 0.0,
+        }
+    }
+}
+
+impl OmcWeights<'_> {
+    /// The weight at pixel `p`, whose mask value is `alpha`.
+    pub fn at(&self, p: usize, alpha: f32) -> f32 {
+        match self {
+            OmcWeights::Sides { inside, outside } => {
+                if is_complex(alpha) {
+                    *inside
+                } else {
+                    *outside
+                }
+            }
+            OmcWeights::Pixels(w) => w[p],
+        }
+    }
+
+    /// The mean weight over the pixels on each side of the mask, `[outside, inside]` (0 where a
+    /// side has none).
+    pub fn means(&self, alpha: &[f32]) -> [f64; 2] {
+        let mut sums = [(0.0f64, 0usize); 2];
+        for (p, a) in alpha.iter().enumerate() {
+            let side = &mut sums[usize::from(is_complex(*a))];
+            side.0 += self.at(p, *a) as f64;
+            side.1 += 1;
+        }
+        sums.map(|(sum, n)| if n > 0 { sum / n as f64 } else { 0.0 })
+    }
 }
 
 /// An input image with the path it came from, for error messages and the output header.
@@ -150,6 +187,14 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
                 ),
             ));
         }
+    }
+    if let OmcWeights::Pixels(k) = opts.omc_weights
+        && k.len() != w * h
+    {
+        return Err(Error::new(format!(
+            "{} OMC weights for a {w}×{h} image",
+            k.len()
+        )));
     }
     let (d, i_omc) = omc.source.light().map_err(|e| e.with_file(omc.path))?;
     check_finite_rgb(&d, w, "the direct light").map_err(|e| e.with_file(omc.path))?;
@@ -274,8 +319,9 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     image.set_float("mixmc.switch", opts.switch);
     image.set_text("mixmc.switched", if switched { "true" } else { "false" });
     image.set_text("mixmc.fxaa", if opts.fxaa { "true" } else { "false" });
-    image.set_float("mixmc.omc_weight", opts.omc_weights.inside as f64);
-    image.set_float("mixmc.omc_weight_outside", opts.omc_weights.outside as f64);
+    let [outside, inside] = opts.omc_weights.means(&alpha_used);
+    image.set_float("mixmc.omc_weight", inside);
+    image.set_float("mixmc.omc_weight_outside", outside);
     image.set_float(
         "mixmc.fxaa_pixels",
         if opts.fxaa { border_pixels as f64 } else { 0.0 },
@@ -314,7 +360,7 @@ mod tests {
         let i = [[4.0, 8.0, 16.0], [2.0, 2.0, 2.0]];
         let m = [[0.25, 0.5, 1.0], [3.0, 3.0, 3.0]];
         let mut out = d;
-        let weights = |inside, outside| OmcWeights { inside, outside };
+        let weights = |inside, outside| OmcWeights::Sides { inside, outside };
         equation2(&mut out, &i, &[0.5, 1.0], &m, weights(0.0, 0.0));
         assert_eq!(out, [[3.25, 6.5, 12.0], [3.5, 3.5, 3.5]]);
         // OMC weight ¼ inside the mask only: 0.5 + 2/4 + 3·3/4.
@@ -325,5 +371,20 @@ mod tests {
         let mut out = d;
         equation2(&mut out, &i, &[0.5, 1.0], &m, weights(0.25, 0.5));
         assert_eq!(out, [[4.125, 8.25, 15.5], [3.25, 3.25, 3.25]]);
+        // A weight per pixel: the same as the sides' where it holds their weights.
+        let mut each = d;
+        equation2(
+            &mut each,
+            &i,
+            &[0.5, 1.0],
+            &m,
+            OmcWeights::Pixels(&[0.5, 0.25]),
+        );
+        assert_eq!(each, out);
+        assert_eq!(
+            OmcWeights::Pixels(&[0.5, 0.25]).means(&[0.5, 1.0]),
+            [0.5, 0.25]
+        );
+        assert_eq!(weights(0.25, 0.5).means(&[1.0, 1.0]), [0.0, 0.25]);
     }
 }

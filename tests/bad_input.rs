@@ -290,6 +290,59 @@ fn composite_weights_outside_zero_to_one_are_one_line_errors() {
     }
 }
 
+/// A per-pixel weight map (`--omc-weights`) with a weight outside [0, 1], or of another size
+/// than the images, is a one-line error and no output.
+#[test]
+fn composite_weight_maps_outside_zero_to_one_or_of_another_size_are_one_line_errors() {
+    let tmp = TempDir::new("bad-composite-weight-map");
+    let (w, h) = (4, 3);
+    let write = |name: &str, channels: &[(&str, f32)], size: (usize, usize)| {
+        let mut img = ExrImage::new(size.0, size.1);
+        for (c, v) in channels {
+            img.add(c, vec![*v; size.0 * size.1]);
+        }
+        let path = tmp.join(name);
+        img.write(&path, false).unwrap();
+        path.display().to_string()
+    };
+    let light = ["direct", "indirect"].map(|p| ["R", "G", "B"].map(|c| format!("{p}.{c}")));
+    let light: Vec<(&str, f32)> = light.iter().flatten().map(|n| (n.as_str(), 0.5)).collect();
+    let omc = write("omc.exr", &light, (w, h));
+    let mask = write("mask.exr", &[("alpha", 1.0)], (w, h));
+    let mcmc = write("mcmc.exr", &[("R", 0.25), ("G", 0.25), ("B", 0.25)], (w, h));
+    let out = tmp.join("out.exr");
+    let compose = |map: &str| {
+        let mut args = vec!["--omc", &omc, "--mask", &mask, "--mcmc", &mcmc];
+        args.extend([
+            "-o",
+            out.to_str().unwrap(),
+            "--switch",
+            "1",
+            "--omc-weights",
+            map,
+        ]);
+        tool("mixmc-composite", &args, &[])
+    };
+    let above = "omc_weight 1.5 at pixel (0, 0) is outside [0, 1]";
+    for (map, size, needle) in [
+        ("above.exr", (w, h), above),
+        ("small.exr", (2, 2), "4 OMC weights for a 4×3 image"),
+    ] {
+        let weight = if size == (w, h) { 1.5 } else { 0.5 };
+        let run = compose(&write(map, &[("omc_weight", weight)], size));
+        assert_one_line_error("mixmc-composite", &run, &[needle]);
+        assert!(!out.exists());
+    }
+    // A good map composes: weight ½ in every pixel of the mask, D + ½·I + ½·I_mcmc.
+    assert!(
+        compose(&write("good.exr", &[("omc_weight", 0.5)], (w, h)))
+            .status
+            .success()
+    );
+    let img = ExrImage::read(&out).unwrap();
+    assert!(img.require("R").unwrap().iter().all(|&v| v == 0.875));
+}
+
 #[test]
 fn merge_refuses_renders_of_different_sizes() {
     let tmp = TempDir::new("bad-merge-sizes");

@@ -397,17 +397,31 @@ fn mmlts_pace_is_checked_part_way_into_its_share() {
 }
 
 /// The measured job's kept files recomposed by the compositor with the weights the job wrote
-/// (OMC's indirect light inside the mask and outside it) and no FXAA.
+/// (OMC's weight in each pixel, `weights.exr`) and no FXAA; the header's weights are their
+/// means on each side of the mask.
 fn recomposed(fin: &ExrImage, keep: &Path) -> ExrImage {
     let out = keep.join("recomposed.exr");
-    let [o, m, c] = ["omc.exr", "mask.exr", "mcmc.exr"].map(|f| keep.join(f));
-    let k = |key| fin.float_attr(key).unwrap().to_string();
-    let (k_in, k_out) = (k("mixmc.omc_weight"), k("mixmc.omc_weight_outside"));
+    let [o, m, c, w] = ["omc.exr", "mask.exr", "mcmc.exr", "weights.exr"].map(|f| keep.join(f));
     let mut args = vec!["--omc", p(&o), "--mask", p(&m), "--mcmc", p(&c)];
-    args.extend(["-o", p(&out), "--switch", "1", "--omc-weight", &k_in]);
-    args.extend(["--omc-weight-outside", &k_out, "--no-fxaa"]);
+    args.extend([
+        "-o",
+        p(&out),
+        "--switch",
+        "1",
+        "--omc-weights",
+        p(&w),
+        "--no-fxaa",
+    ]);
     run_ok("mixmc-composite", &args);
-    read(&out)
+    let img = read(&out);
+    for k in ["mixmc.omc_weight", "mixmc.omc_weight_outside"] {
+        let (a, b) = (fin.float_attr(k).unwrap(), img.float_attr(k).unwrap());
+        assert!(
+            (a - b).abs() <= 1e-6,
+            "{k}: {a} in the job's header, {b} from its weights"
+        );
+    }
+    img
 }
 
 #[test]

@@ -4,10 +4,11 @@
 use clap::Parser;
 use mixmc::cli::{COMMAND_ATTR, command_line, init_threads, main_with};
 use mixmc::composite::{DEFAULT_SWITCH, Input, OmcInput, OmcWeights, Options, composite};
+use mixmc::error::{Error, Result};
 use mixmc::exrio::ExrImage;
 use mixmc::film::write_beauty_png;
 use mixmc::layout::LightArgs;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 const TOOL: &str = "mixmc-composite";
@@ -49,6 +50,10 @@ struct Args {
     /// (1 − k)·I_mcmc (0: eq. (2); mixmc-mix writes it as mixmc.omc_weight_outside).
     #[arg(long, default_value_t = 0.0)]
     omc_weight_outside: f32,
+    /// OMC's weight per pixel instead: an EXR with an `omc_weight` channel in [0, 1] (mixmc-mix
+    /// --keep writes it as weights.exr).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["omc_weight", "omc_weight_outside"])]
+    omc_weights: Option<PathBuf>,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -65,9 +70,7 @@ fn main() -> ExitCode {
             ("--omc-weight-outside", args.omc_weight_outside),
         ] {
             if !(0.0..=1.0).contains(&k) {
-                return Err(mixmc::error::Error::new(format!(
-                    "{flag} must be in [0, 1]"
-                )));
+                return Err(Error::new(format!("{flag} must be in [0, 1]")));
             }
         }
         // The outputs are checked before any work: a render must not be lost to its output.
@@ -75,6 +78,18 @@ fn main() -> ExitCode {
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
+        let weights_image = args
+            .omc_weights
+            .as_ref()
+            .map(|p| ExrImage::read(p))
+            .transpose()?;
+        let omc_weights = match (&weights_image, &args.omc_weights) {
+            (Some(img), Some(path)) => OmcWeights::Pixels(weight_map(img, path)?),
+            _ => OmcWeights::Sides {
+                inside: args.omc_weight,
+                outside: args.omc_weight_outside,
+            },
+        };
         let result = composite(
             OmcInput {
                 path: &args.omc[0],
@@ -91,10 +106,7 @@ fn main() -> ExitCode {
             Options {
                 fxaa: !args.no_fxaa,
                 switch: args.switch,
-                omc_weights: OmcWeights {
-                    inside: args.omc_weight,
-                    outside: args.omc_weight_outside,
-                },
+                omc_weights,
             },
         )?;
         for (file, msg) in &result.warnings {
@@ -111,6 +123,9 @@ fn main() -> ExitCode {
             format!("MCMC only (complex fraction > --switch {})", args.switch)
         } else {
             let mut eq = "eq. (2)".to_string();
+            if let Some(path) = &args.omc_weights {
+                eq += &format!(", OMC weight per pixel from {}", path.display());
+            }
             for (k, side) in [
                 (args.omc_weight, "in"),
                 (args.omc_weight_outside, "outside"),
@@ -132,4 +147,21 @@ fn main() -> ExitCode {
         );
         Ok(ExitCode::SUCCESS)
     })
+}
+
+/// The `omc_weight` channel of `--omc-weights`, every value in [0, 1].
+fn weight_map<'a>(img: &'a ExrImage, path: &Path) -> Result<&'a [f32]> {
+    let w = img.require("omc_weight").map_err(|e| e.with_file(path))?;
+    match w.iter().position(|k| !(0.0..=1.0).contains(k)) {
+        Some(p) => Err(Error::in_file(
+            path,
+            format!(
+                "omc_weight {} at pixel ({}, {}) is outside [0, 1]",
+                w[p],
+                p % img.width,
+                p / img.width
+            ),
+        )),
+        None => Ok(w),
+    }
 }

@@ -148,6 +148,7 @@ fn main() -> ExitCode {
                 Some(&m.omc),
                 Some(&m.mask),
                 m.mcmc.as_ref(),
+                m.weights.as_ref(),
             ];
             for (name, img) in KEEP_NAMES.iter().zip(files) {
                 if let Some(img) = img {
@@ -169,9 +170,14 @@ fn main() -> ExitCode {
             (r.omc_weight, r.mcmc_unseen, "in"),
             (r.omc_weight_outside, r.mcmc_unseen_outside, "outside"),
         ] {
+            let each = if side == "in" {
+                " (its pixels' mean)"
+            } else {
+                ""
+            };
             if k > 0.0 {
                 weight += &format!(
-                    ", OMC weight {k:.2} {side} the mask (MMLT's error there beyond its halves {unseen:.2})"
+                    ", OMC weight {k:.2}{each} {side} the mask (MMLT's error there beyond its halves {unseen:.2})"
                 );
             }
         }

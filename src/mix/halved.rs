@@ -3,7 +3,9 @@
 //! renders' halves (`estimate`), split at the mask.
 
 use super::Job;
-use super::estimate::{Halves, MixHalf, add, film_means, total_error, unseen_error, weight_of_omc};
+use super::estimate::{
+    Halves, MixHalf, add, film_means, pixel_weights, total_error, unseen_error, weight_of_omc,
+};
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
@@ -196,14 +198,15 @@ impl Halved {
         self.as_halves(&a, &b).ldr_error(level)
     }
 
-    /// OMC's weights for the final composite, `[outside, inside]` the mask, from this render's
-    /// halves and MMLT's (`estimate::weight_of_omc`), and MMLT's error there that its halves do
-    /// not show (`estimate::unseen_error`, against OMC's indirect light times α, which MMLT's
-    /// image estimates). Not its whole error less what its halves show
-    /// (`estimate::total_error`, which the decision uses): in the weight that raised OMC's share
-    /// on cornell-water from 0.15 to 0.30–0.35 and its MSE by 3–9% at 30 s, and did not help on
-    /// the torus (docs/main-job.md, eleventh round).
-    pub(super) fn weights(&self, run: &MmltRun, alpha: &[f32]) -> [(f64, f64); 2] {
+    /// OMC's weight for the final composite in every pixel: outside the mask one weight from
+    /// this render's halves and MMLT's (`estimate::weight_of_omc`), inside it each pixel's own
+    /// (`estimate::pixel_weights`); and, `[outside, inside]`, MMLT's error there that its
+    /// halves do not show (`estimate::unseen_error`, against OMC's indirect light times α,
+    /// which MMLT's image estimates), which the weight outside counts. Not its whole error less
+    /// what its halves show (`estimate::total_error`, which the decision uses): in the weight
+    /// that raised OMC's share on cornell-water from 0.15 to 0.30–0.35 and its MSE by 3–9% at
+    /// 30 s, and did not help on the torus (docs/main-job.md, eleventh round).
+    pub(super) fn weights(&self, run: &MmltRun, alpha: &[f32]) -> (Vec<f32>, [f64; 2]) {
         let [(da, ia), (db, ib)] = self.half_means();
         let [ma, mb] = run.halves();
         let inside = complex_pixels(alpha);
@@ -213,23 +216,26 @@ impl Halved {
             i.iter().zip(alpha).map(|(x, a)| x.map(|v| v * a)).collect()
         };
         let (sa, sb) = (times_alpha(&ia), times_alpha(&ib));
+        let (omc, mcmc) = (self.as_halves(&sa, &sb), Halves::equal(&ma, &mb));
+        let unseen = [false, true].map(|side| {
+            let select: Vec<bool> = inside.iter().map(|&c| c == side).collect();
+            unseen_error(&mcmc, &omc, &level, size, &select)
+        });
+        let outside: Vec<bool> = inside.iter().map(|&c| !c).collect();
         let half = |direct, indirect, mcmc| MixHalf {
             direct,
             indirect,
             mcmc,
         };
-        [false, true].map(|side| {
-            let select: Vec<bool> = inside.iter().map(|&c| c == side).collect();
-            let unseen = unseen_error(
-                &Halves::equal(&ma, &mb),
-                &self.as_halves(&sa, &sb),
-                &level,
-                size,
-                &select,
-            );
-            let halves = [half(&da, &ia, &ma), half(&db, &ib, &mb)];
-            (weight_of_omc(halves, alpha, &select, unseen), unseen)
-        })
+        let halves = [half(&da, &ia, &ma), half(&db, &ib, &mb)];
+        let k = weight_of_omc(halves, alpha, &outside, unseen[0]) as f32;
+        let own = pixel_weights(&omc, &mcmc, size.0);
+        let map = inside
+            .iter()
+            .zip(own)
+            .map(|(&c, w)| if c { w } else { k })
+            .collect();
+        (map, unseen)
     }
 
     /// The means of each half's beauty (D + I).

@@ -218,6 +218,9 @@ pub struct Mixed {
     pub mask: ExrImage,
     /// Absent when the job was interrupted before MMLT rendered anything.
     pub mcmc: Option<ExrImage>,
+    /// OMC's weight per pixel in the composite (`omc_weight`; `mixmc-composite --omc-weights`),
+    /// where the job weighed OMC's and MMLT's estimates.
+    pub weights: Option<ExrImage>,
     /// `R,G,B` of the result with the job's header.
     pub image: ExrImage,
     pub complex_fraction: f64,
@@ -238,7 +241,13 @@ pub struct Mixed {
 }
 
 /// The names the files get under `--keep DIR` (and in the headers that refer to each other).
-pub const KEEP_NAMES: [&str; 4] = ["omc-snapshot.exr", "omc.exr", "mask.exr", "mcmc.exr"];
+pub const KEEP_NAMES: [&str; 5] = [
+    "omc-snapshot.exr",
+    "omc.exr",
+    "mask.exr",
+    "mcmc.exr",
+    "weights.exr",
+];
 
 /// What every phase of one job shares.
 struct Job<'a> {
@@ -605,15 +614,18 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     }
 
     // 5. OMC's and MMLT's estimates of the indirect light are weighed by their errors as
-    // measured at the end, inside the mask and outside it (`estimate::weight_of_omc`); the
-    // fixed splits keep eq. (2).
+    // measured at the end: one weight outside the mask, each pixel's own inside it
+    // (`estimate::weight_of_omc`, `estimate::pixel_weights`); the fixed splits keep eq. (2).
+    let mut weights = None;
     if let (Some(run), Choice::Mix { .. }) = (&mmlt, choice)
         && measured
         && !partial
     {
-        let [outside, inside] = omc.weights(run, alpha);
-        (reasons.omc_weight, reasons.mcmc_unseen) = inside;
-        (reasons.omc_weight_outside, reasons.mcmc_unseen_outside) = outside;
+        let (map, [unseen_out, unseen_in]) = omc.weights(run, alpha);
+        let [mean_out, mean_in] = OmcWeights::Pixels(&map).means(alpha);
+        (reasons.omc_weight, reasons.mcmc_unseen) = (mean_in, unseen_in);
+        (reasons.omc_weight_outside, reasons.mcmc_unseen_outside) = (mean_out, unseen_out);
+        weights = Some(map);
     }
 
     // 6. The images, and the composite the choice makes of them.
@@ -634,7 +646,10 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         fixed_share
     };
     let composite_start = Instant::now();
-    let (mut image, omc_img) = compose(&job, dir, choice, omc_img, &masked, &mcmc, &reasons)?;
+    let omc_weights = weights
+        .as_deref()
+        .map_or_else(OmcWeights::default, OmcWeights::Pixels);
+    let (mut image, omc_img) = compose(&job, dir, choice, omc_img, &masked, &mcmc, omc_weights)?;
     let phases = Phases {
         omc: omc_render.seconds,
         mask: masked.seconds,
@@ -655,6 +670,11 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
         omc: omc_img,
         mask: masked.image,
         mcmc,
+        weights: weights.map(|k| {
+            let mut img = ExrImage::new(job.w, job.h);
+            img.add("omc_weight", k);
+            img
+        }),
         image,
         complex_fraction: masked.complex_fraction,
         switched,
@@ -677,7 +697,7 @@ fn compose(
     omc_img: ExrImage,
     masked: &Masked,
     mcmc: &Option<ExrImage>,
-    reasons: &Reasons,
+    omc_weights: OmcWeights,
 ) -> Result<(ExrImage, ExrImage)> {
     let rgb_of = |img: &ExrImage| -> Result<ExrImage> {
         let mut out = ExrImage::new(job.w, job.h);
@@ -704,10 +724,7 @@ fn compose(
                 Options {
                     fxaa: job.s.fxaa,
                     switch: job.s.mask.switch,
-                    omc_weights: OmcWeights {
-                        inside: reasons.omc_weight as f32,
-                        outside: reasons.omc_weight_outside as f32,
-                    },
+                    omc_weights,
                 },
             )?;
             if let Some((file, msg)) = c.warnings.first() {

@@ -51,13 +51,13 @@ pub struct Reasons {
     /// The same again part way into MMLT's share, at MMLT's pace as measured since the
     /// checkpoint (`pilot::pace_check`).
     pub pace_check: Option<(Decision, Rates)>,
-    /// The weight of OMC's indirect light inside the mask in the composite; MMLT's is 1 minus
-    /// it (0: eq. (2)).
+    /// The weight of OMC's indirect light inside the mask in the composite, the mean of its
+    /// pixels' weights (`estimate::pixel_weights`); MMLT's is 1 minus it (0: eq. (2)).
     pub omc_weight: f64,
     /// Outside the mask, the weight given to OMC of MMLT's ε·I (`composite::OmcWeights`).
     pub omc_weight_outside: f64,
-    /// MMLT's image-mean error inside the mask that its halves do not show, as the weight was
-    /// chosen (`estimate::unseen_error`; 0 where the job did not mix).
+    /// MMLT's image-mean error inside the mask that its halves do not show
+    /// (`estimate::unseen_error`; 0 where the job did not mix).
     pub mcmc_unseen: f64,
     /// The same outside the mask.
     pub mcmc_unseen_outside: f64,

@@ -92,8 +92,9 @@ pub struct Options<'a> {
 }
 
 /// The weight `k` of OMC's indirect light in the composite, MMLT's image getting `1 − k`, on
-/// each side of the mask: both estimate the indirect light, and where their errors are alike
-/// the weighed pair beats either (the main job measures both, `mix::estimate::weight_of_omc`).
+/// each side of the mask or in each pixel: both estimate the indirect light, and where their
+/// errors are alike the weighed pair beats either (the main job measures both,
+/// `mix::estimate::weight_of_omc`, `mix::estimate::pixel_weights`).
 /// Outside the mask MMLT's ε-weighted chains add ε·I, which helps where they see that light
 /// better than OMC does (the bathroom) and costs where OMC's is the better estimate (the torus
 /// at 120 s: 0.28 of 3.71 MSE).

@@ -352,13 +352,14 @@ const POOL_RADIUS: usize = 3;
 /// have not found yet; which, the difference cannot tell, so each is taken to hold half.
 ///
 /// One weight for the whole mask is a compromise between MMLT's clean pixels and its blotches.
-/// On the twenty-ninth round's eight jobs (cornell-torus at 30 and 120 s, cornell-water and
-/// the bathroom at 30 s, two seeds each; the same renders weighed both ways) these weights
-/// lowered the image's MSE against the reference by 7–10% on the torus, 1–2% on the water and
-/// 2–5% in the bathroom. Giving MMLT the whole excess did better on the torus (8–11%) and
-/// worse on the water (+4%), where LT's caustic light is the part not found; giving it none
-/// (the halves alone) lost 0–27% on the torus (docs/main-job.md). Linear, not linearised: a
-/// pixel's two errors share its LDR slope.
+/// On ten jobs (cornell-torus at 30 and 120 s, cornell-water and the bathroom at 30 s, two seeds
+/// each, and one each of the last two at 120 s; the same renders weighed both ways) these
+/// weights lowered the image's MSE against the reference by 9–10% on the torus, 1–7% on the
+/// water and 2–7% in the bathroom, against the one weight the halves chose. Giving MMLT the
+/// whole excess did as well on the torus and lost 4% on the water at 30 s, where LT's caustic
+/// light is the part not found; giving it none (the halves alone) lost up to 27% on the torus
+/// (docs/main-job.md, twenty-ninth round). Linear, not linearised: a pixel's two errors share
+/// its LDR slope.
 pub fn pixel_weights(omc: &Halves, mcmc: &Halves, width: usize) -> Vec<f32> {
     let (o, m) = (omc.whole(), mcmc.whole());
     let mean3 = |v: [f64; 3]| (v[0] + v[1] + v[2]) / 3.0;

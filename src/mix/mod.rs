@@ -22,8 +22,8 @@
 //!    chains, which weigh their large steps with Kelemen's MIS once b_d is known, and, a third
 //!    of the way into a share long enough, a pace check that measures MMLT's pace over its own
 //!    render and decides the time left once more (`pilot::pace_check`);
-//! 5. the weights of OMC's indirect light inside the mask and outside it, where both methods
-//!    have rendered it (`estimate::weight_of_omc`);
+//! 5. the weights of OMC's indirect light where both methods have rendered it: each pixel's own
+//!    inside the mask (`estimate::pixel_weights`), one outside it (`estimate::weight_of_omc`);
 //! 6. the composite: eq. (2) with those weights.
 //!
 //! Errors are estimated from independent halves of each render (`estimate`, `halved`), so no

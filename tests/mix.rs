@@ -8,7 +8,19 @@ use mixmc::exrio::ExrImage;
 use mixmc::mix::MEASURED_SWITCH;
 use mixmc::mix::plan::worth_a_pilot;
 use std::path::Path;
+use std::sync::{Mutex, MutexGuard};
 use util::{TempDir, assert_one_line_error, bin, fixture, run_ok};
+
+/// The jobs here decide by how far their renders converge in their seconds, so tests rendering
+/// at once on a 2-core host change each other's decisions: in CI on 2026-12-06 none of five
+/// water jobs reached its pace check while the other tests ran beside them, where alone the
+/// first did. Every test holds this lock for its whole run.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// The lock of `ONE_AT_A_TIME`, also after another test panicked holding it.
+fn alone() -> MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 fn read(p: &Path) -> ExrImage {
     ExrImage::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -71,6 +83,7 @@ fn mix_caustic(seconds: &str, out: &Path, keep: &Path, extra: &[&str]) {
 
 #[test]
 fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-keep");
     let keep = tmp.join("keep");
     let out = tmp.join("final.exr");
@@ -161,6 +174,7 @@ fn kept_files_recompose_to_the_same_image_through_the_separate_tools() {
 /// which a tiny scene's few seconds do not always show).
 #[test]
 fn without_fxaa_the_jobs_image_is_its_files_recomposed_without_it() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-no-fxaa");
     let (keep, out) = (tmp.join("keep"), tmp.join("final.exr"));
     let fixed = ["--switch", "1", "--omc", "ibpt", "--split", "half"];
@@ -206,6 +220,7 @@ fn differ(a: &[Vec<f32>], b: &[Vec<f32>]) -> usize {
 
 #[test]
 fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmasked_mmlt() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-switch");
     // A switch of 0.001 fires on any mask that marks a single segment of the glass scene.
     let extra = ["--paper-mask", "--switch", "0.001", "--no-fxaa"];
@@ -245,6 +260,7 @@ fn above_the_switch_the_image_is_mcmc_alone_or_with_a_fixed_split_d_plus_unmaske
 /// paper's fixed split keeps the paper's 35%. The tiny caustic's mask marks 57–68%.
 #[test]
 fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_papers() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-switch-default");
     for (name, extra, switch) in [
         ("measured", &[][..], MEASURED_SWITCH),
@@ -361,6 +377,7 @@ fn paced_again_where_mmlt_went_on(fin: &ExrImage) -> bool {
 
 #[test]
 fn a_mix_is_decided_again_once_omc_has_rendered_its_share() {
+    let _alone = alone();
     // cornell-water's tiny twin, whose pilot mixes with a margin on seed 2: for the time of 400
     // IBPT passes on an AMD Zen 5 (predicted 10.3 against OMC alone's 13.1), of 800 on the
     // slower hosts it was first tuned on (4 s there: 23–25 against 33–34).
@@ -374,6 +391,7 @@ fn a_mix_is_decided_again_once_omc_has_rendered_its_share() {
 
 #[test]
 fn mmlts_pace_is_checked_part_way_into_its_share() {
+    let _alone = alone();
     // cornell-water's tiny twin for the time of 400 IBPT passes (seeds 2–5 were paced on an AMD
     // Zen 5, where at 800 two of three were not: MMLT's share after the checkpoint fell short of
     // three times its pilot's), or of 800 (8 s on the slower hosts it was first tuned on, where
@@ -426,6 +444,7 @@ fn recomposed(fin: &ExrImage, keep: &Path) -> ExrImage {
 
 #[test]
 fn where_the_pilot_gives_mmlt_no_more_time_omc_renders_the_rest_and_the_pilot_is_weighed_in() {
+    let _alone = alone();
     // The room's tiny twin at 4 s with the paper's mask (93% of the pixels marked, where IBPT
     // beats MMLT): its pilot saw no gain in more of MMLT on seeds 1–6, also with another job
     // beside it (predicted mix 10.3 / 7.0 / 10.2 against OMC alone's 9.7 / 6.3 / 9.0 on 1–3).
@@ -464,6 +483,7 @@ fn where_the_pilot_gives_mmlt_no_more_time_omc_renders_the_rest_and_the_pilot_is
 
 #[test]
 fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-measured");
     // A scene with no hard light paths: the mask is empty, and OMC alone renders it.
     let (keep, out) = (tmp.join("clean"), tmp.join("clean.exr"));
@@ -548,6 +568,7 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
 
 #[test]
 fn bad_arguments_are_one_line_errors() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-bad");
     let out = tmp.join("final.exr");
     for (extra, needle) in [
@@ -574,6 +595,7 @@ fn bad_arguments_are_one_line_errors() {
 
 #[test]
 fn sigint_during_omc_writes_the_omc_image_marked_partial() {
+    let _alone = alone();
     let tmp = TempDir::new("mix-sigint");
     let out = tmp.join("final.exr");
     let mut child = std::process::Command::new(bin("mixmc-mix"))

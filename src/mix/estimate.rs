@@ -426,6 +426,12 @@ mod tests {
     use super::*;
     use crate::rng::{Rng, Sampler};
 
+    /// A standard normal deviate (Box–Muller) from two of `rng`'s numbers.
+    fn gauss(rng: &mut Rng) -> f64 {
+        let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+
     /// Where MMLT's target grows from α·I to every light path: by b's growth times a side's
     /// light over its share of the target; a side without light adds nothing, and one whose
     /// light the target does not hold cannot be carried.
@@ -468,10 +474,7 @@ mod tests {
     fn the_weight_follows_the_halves_errors() {
         let n = 20_000usize;
         let mut rng = Rng::new(11, 0, 0);
-        let mut gauss = || {
-            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
-            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
-        };
+        let mut gauss = || gauss(&mut rng) as f32;
         let zero = vec![[0.0f32; 3]; n];
         let mut noisy = |level: f32, s: f32| -> Vec<[f32; 3]> {
             (0..n).map(|_| [level + s * gauss(); 3]).collect()
@@ -524,10 +527,7 @@ mod tests {
     fn pixel_weights_give_each_region_to_its_better_method() {
         let (width, n) = (200, 200 * 100);
         let mut rng = Rng::new(5, 0, 0);
-        let mut gauss = || {
-            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
-            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
-        };
+        let mut gauss = || gauss(&mut rng) as f32;
         let left = |p: usize| p % width < width / 2;
         let mut noisy = |s_left: f32, s_right: f32, dark_left: f32| -> Vec<[f32; 3]> {
             (0..n)
@@ -584,10 +584,7 @@ mod tests {
     fn halves_estimate_the_linearised_error_of_the_whole() {
         let (n, level, sigma) = (20_000usize, 0.25f32, 0.01f64);
         let mut rng = Rng::new(7, 0, 0);
-        let mut gauss = || {
-            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
-            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-        };
+        let mut gauss = || gauss(&mut rng);
         // Half a holds 3 samples per pixel, half b 1: their means have σ²/3 and σ².
         let mut a = Vec::with_capacity(n);
         let mut b = Vec::with_capacity(n);
@@ -724,10 +721,7 @@ mod tests {
         let n = 40_000usize;
         let (level, sm, sr, delta) = (0.3f32, 0.01f32, 0.05f32, 0.01f32);
         let mut rng = Rng::new(5, 0, 0);
-        let mut gauss = || {
-            let (u, v) = (rng.next_1d().max(1e-9) as f64, rng.next_1d() as f64);
-            ((-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
-        };
+        let mut gauss = || gauss(&mut rng) as f32;
         let mut noisy = |mean: f32, s: f32| -> Vec<[f32; 3]> {
             (0..n).map(|_| [mean + s * gauss(); 3]).collect()
         };

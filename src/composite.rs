@@ -4,6 +4,10 @@
 //! `I_mcmcα` already estimates `α·I` (the chain's target was `α·I`), so it is added as it is; the
 //! OMC part keeps the complementary share `1 − α`. Where the mask changes, the two estimates meet
 //! along a seam of different noise, which FXAA softens; nothing else is filtered.
+//!
+//! An MCMC image of all light (`mixmc.min_depth` 0: `mixmc-mmlt --include-direct`, the main job's
+//! MCMC alone) estimates `α·(D + I)`, so OMC's direct light takes the share its indirect light
+//! takes; rendered without a mask, it is MCMC everywhere (α ≡ 1).
 
 use crate::PIXEL_CHUNK;
 use crate::error::{Error, Result};
@@ -59,6 +63,28 @@ pub fn equation2(
                 d[c] = d[c] + i[c] * (1.0 - a + a * k) + m[c] * (1.0 - k);
             }
         });
+}
+
+/// Whether an MCMC image holds all light (`mixmc.min_depth` 0) rather than the indirect light
+/// (2, or no such header: eq. (2)'s contract, other renderers' images); any other first depth
+/// leaves out light that neither reading adds back.
+fn holds_all_light(image: &ExrImage) -> Result<bool> {
+    match image.float_attr("mixmc.min_depth") {
+        None => Ok(false),
+        Some(d) if d == 2.0 => Ok(false),
+        Some(d) if d == 0.0 => Ok(true),
+        Some(d) => Err(Error::new(format!(
+            "mixmc.min_depth {d}: the compositor takes MCMC images of the indirect light (2) or of all light (0)"
+        ))),
+    }
+}
+
+/// Element-wise sum of two images.
+pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
+        .collect()
 }
 
 /// Pixels whose 3×3 neighbourhood (clipped at the image border) holds both complex and simple
@@ -204,6 +230,7 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
         .image
         .require_finite_rgb(RGB)
         .map_err(|e| e.with_file(mcmc.path))?;
+    let all_light = holds_all_light(mcmc.image).map_err(|e| e.with_file(mcmc.path))?;
     let alpha = mask
         .image
         .require("alpha")
@@ -232,7 +259,10 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     // An MCMC image rendered with this very mask holds α·I only: MCMC alone would drop the
     // rest of the indirect light, so eq. (2) is the one right composite whatever the share.
     let rendered_with_this_mask = mcmc_hash.as_deref() == Some(given_hash.as_str());
-    let switched = fraction > opts.switch && !rendered_with_this_mask;
+    // An unmasked render of all light is MCMC alone whatever the mask holds: eq. (2) with the
+    // mask's α would count OMC's light beside MMLT's where α < 1.
+    let switched =
+        (fraction > opts.switch || (all_light && mcmc_hash.is_none())) && !rendered_with_this_mask;
     if fraction > opts.switch && rendered_with_this_mask && alpha.iter().any(|&a| a != 1.0) {
         warn(
             mcmc.path,
@@ -295,7 +325,13 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
         );
     }
 
-    let mut mixed = d;
+    // With MCMC's image of all light, OMC's D + I takes the place of its I, and no D stands
+    // apart: `(D + I)·(1 − α + α·k) + (1 − k)·MCMC`.
+    let (mut mixed, i_omc) = if all_light {
+        (vec![[0.0; 3]; w * h], add(&d, &i_omc))
+    } else {
+        (d, i_omc)
+    };
     equation2(&mut mixed, &i_omc, &alpha_used, &i_mcmc, opts.omc_weights);
     drop((i_omc, i_mcmc));
     let borders = mask_borders(&alpha_used, w, h);
@@ -353,6 +389,78 @@ mod tests {
         assert_eq!(b, expect);
         assert!(mask_borders(&[0.1; 12], 4, 3).iter().all(|b| !b));
         assert!((complex_fraction(&alpha) - 1.0 / 12.0).abs() < 1e-12);
+    }
+
+    /// `composite` of a 2×1 OMC render (D, I), a mask, and an MCMC image whose first depth is
+    /// `min_depth` (no header where `None`) rendered with that mask or without one.
+    fn compose_two(
+        alpha: [f32; 2],
+        min_depth: Option<f64>,
+        masked: bool,
+        weights: OmcWeights,
+    ) -> Result<Vec<[f32; 3]>> {
+        let mut omc = ExrImage::new(2, 1);
+        omc.add_rgb("direct", RGB, &[[1.0; 3], [0.5; 3]]);
+        omc.add_rgb("indirect", RGB, &[[4.0; 3], [2.0; 3]]);
+        let source = Source::new(
+            crate::layout::Preset::Mixmc,
+            crate::layout::Names::default(),
+            vec![("omc.exr".into(), omc)],
+        )?;
+        let mut mask = ExrImage::new(2, 1);
+        mask.add("alpha", alpha.to_vec());
+        let mut mcmc = ExrImage::new(2, 1);
+        mcmc.add_rgb("", RGB, &[[0.25; 3], [3.0; 3]]);
+        if let Some(d) = min_depth {
+            mcmc.set_float("mixmc.min_depth", d);
+        }
+        if masked {
+            mcmc.set_text(MASK_HASH_ATTR, alpha_hash(2, 1, &alpha));
+        }
+        let input = |path: &'static str, image| Input {
+            path: Path::new(path),
+            image,
+        };
+        let c = composite(
+            OmcInput {
+                path: Path::new("omc.exr"),
+                source: &source,
+            },
+            input("mask.exr", &mask),
+            input("mcmc.exr", &mcmc),
+            Options {
+                fxaa: false,
+                switch: DEFAULT_SWITCH,
+                omc_weights: weights,
+            },
+        )?;
+        Ok(c.image.require_rgb(RGB)?)
+    }
+
+    #[test]
+    fn an_mcmc_image_of_all_light_takes_the_share_of_omcs_direct_light_too() {
+        let none = OmcWeights::default();
+        // Indirect light (depth 2 up, or no header): eq. (2), D + I·(1 − α) + MCMC.
+        for depth in [Some(2.0), None] {
+            let got = compose_two([0.1, 1.0], depth, true, none).unwrap();
+            assert_eq!(got, [[1.0 + 4.0 * 0.9 + 0.25; 3], [0.5 + 3.0; 3]]);
+        }
+        // All light with the mask: (D + I)·(1 − α) + MCMC, no D counted twice.
+        let got = compose_two([0.1, 1.0], Some(0.0), true, none).unwrap();
+        assert_eq!(got, [[5.0 * 0.9 + 0.25; 3], [3.0; 3]]);
+        // All light without a mask: MCMC everywhere, whatever the mask holds.
+        let got = compose_two([0.1, 1.0], Some(0.0), false, none).unwrap();
+        assert_eq!(got, [[0.25; 3], [3.0; 3]]);
+        // And OMC's render weighed beside it per pixel: k·(D + I) + (1 − k)·MCMC.
+        let k = OmcWeights::Pixels(&[0.5, 0.25]);
+        let got = compose_two([0.1, 1.0], Some(0.0), false, k).unwrap();
+        assert_eq!(
+            got,
+            [[0.5 * 5.0 + 0.5 * 0.25; 3], [0.25 * 2.5 + 0.75 * 3.0; 3]]
+        );
+        // A first depth of 1 leaves out the light seen directly: an error, not a guess.
+        let e = compose_two([0.1, 1.0], Some(1.0), false, none).unwrap_err();
+        assert!(e.to_string().contains("mixmc.min_depth 1"), "{e}");
     }
 
     #[test]

@@ -413,14 +413,6 @@ fn pool(v: &[f64], width: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Element-wise sum of two images.
-pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

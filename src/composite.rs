@@ -71,8 +71,8 @@ pub fn equation2(
 fn holds_all_light(image: &ExrImage) -> Result<bool> {
     match image.float_attr("mixmc.min_depth") {
         None => Ok(false),
-        Some(d) if d == 2.0 => Ok(false),
-        Some(d) if d == 0.0 => Ok(true),
+        Some(2.0) => Ok(false),
+        Some(0.0) => Ok(true),
         Some(d) => Err(Error::new(format!(
             "mixmc.min_depth {d}: the compositor takes MCMC images of the indirect light (2) or of all light (0)"
         ))),
@@ -434,7 +434,7 @@ mod tests {
                 omc_weights: weights,
             },
         )?;
-        Ok(c.image.require_rgb(RGB)?)
+        c.image.require_rgb(RGB)
     }
 
     #[test]

@@ -79,14 +79,6 @@ fn holds_all_light(image: &ExrImage) -> Result<bool> {
     }
 }
 
-/// Element-wise sum of two images.
-pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
-        .collect()
-}
-
 /// Pixels whose 3×3 neighbourhood (clipped at the image border) holds both complex and simple
 /// pixels: the only ones FXAA may change.
 pub fn mask_borders(alpha: &[f32], width: usize, height: usize) -> Vec<bool> {
@@ -326,12 +318,14 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     }
 
     // With MCMC's image of all light, OMC's D + I takes the place of its I, and no D stands
-    // apart: `(D + I)·(1 − α + α·k) + (1 − k)·MCMC`.
-    let (mut mixed, i_omc) = if all_light {
-        (vec![[0.0; 3]; w * h], add(&d, &i_omc))
-    } else {
-        (d, i_omc)
-    };
+    // apart: `(D + I)·(1 − α + α·k) + (1 − k)·MCMC`, in the buffers already held.
+    let (mut mixed, mut i_omc) = (d, i_omc);
+    if all_light {
+        for (d, i) in mixed.iter_mut().zip(&mut i_omc) {
+            *i = std::array::from_fn(|c| d[c] + i[c]);
+            *d = [0.0; 3];
+        }
+    }
     equation2(&mut mixed, &i_omc, &alpha_used, &i_mcmc, opts.omc_weights);
     drop((i_omc, i_mcmc));
     let borders = mask_borders(&alpha_used, w, h);

@@ -78,14 +78,12 @@ fn main() -> ExitCode {
         let omc = args.layout.open(&args.omc)?;
         let mask = ExrImage::read(&args.mask)?;
         let mcmc = ExrImage::read(&args.mcmc)?;
-        let weights_image = args
-            .omc_weights
-            .as_ref()
-            .map(|p| ExrImage::read(p))
+        let weights_image = (args.omc_weights.as_ref())
+            .map(|p| ExrImage::read(p).map(|img| (p, img)))
             .transpose()?;
-        let omc_weights = match (&weights_image, &args.omc_weights) {
-            (Some(img), Some(path)) => OmcWeights::Pixels(weight_map(img, path)?),
-            _ => OmcWeights::Sides {
+        let omc_weights = match &weights_image {
+            Some((path, img)) => OmcWeights::Pixels(weight_map(img, path)?),
+            None => OmcWeights::Sides {
                 inside: args.omc_weight,
                 outside: args.omc_weight_outside,
             },
@@ -119,26 +117,33 @@ fn main() -> ExitCode {
             write_beauty_png(png, &img)?;
         }
         img.into_file(&args.output, false)?;
+        let mut weighed = String::new();
+        if let Some(path) = &args.omc_weights {
+            weighed += &format!(", OMC weight per pixel from {}", path.display());
+        }
+        for (k, side) in [
+            (args.omc_weight, "in"),
+            (args.omc_weight_outside, "outside"),
+        ] {
+            if k > 0.0 {
+                weighed += &format!(", OMC weight {k} {side} the mask");
+            }
+        }
         let how = if result.switched {
-            format!("MCMC only (complex fraction > --switch {})", args.switch)
-        } else {
-            let mut eq = "eq. (2)".to_string();
-            if let Some(path) = &args.omc_weights {
-                eq += &format!(", OMC weight per pixel from {}", path.display());
-            }
-            for (k, side) in [
-                (args.omc_weight, "in"),
-                (args.omc_weight_outside, "outside"),
-            ] {
-                if k > 0.0 {
-                    eq += &format!(", OMC weight {k} {side} the mask");
-                }
-            }
-            if args.no_fxaa {
-                format!("{eq}, no FXAA")
+            // Above the switch, or an MCMC image of all light rendered without a mask.
+            let why = if result.complex_fraction > args.switch {
+                format!("complex fraction > --switch {}", args.switch)
             } else {
-                format!("{eq}, FXAA on {} border pixels", result.border_pixels)
-            }
+                "an unmasked MCMC image of all light".to_string()
+            };
+            format!("MCMC only ({why}){weighed}")
+        } else if args.no_fxaa {
+            format!("eq. (2){weighed}, no FXAA")
+        } else {
+            format!(
+                "eq. (2){weighed}, FXAA on {} border pixels",
+                result.border_pixels
+            )
         };
         println!(
             "{}: {:.2}% complex pixels; {how}",

@@ -340,6 +340,14 @@ pub fn weight_of_omc(
         .map_or(0.0, |(w, _)| w as f64)
 }
 
+/// Element-wise sum of two images.
+pub fn add(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| std::array::from_fn(|c| x[c] + y[c]))
+        .collect()
+}
+
 /// Radius of the square (7×7 pixels) over which [`pixel_weights`] sums each pixel's errors.
 const POOL_RADIUS: usize = 3;
 

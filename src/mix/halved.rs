@@ -4,10 +4,9 @@
 
 use super::Job;
 use super::estimate::{
-    Halves, MixHalf, film_means, pixel_weights, total_error, unseen_error, weight_of_omc,
+    Halves, MixHalf, add, film_means, pixel_weights, total_error, unseen_error, weight_of_omc,
 };
 use super::plan::Quadratic;
-use crate::composite::add;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
 use crate::integrators::bidir::{Strategies, render_views};

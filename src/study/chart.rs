@@ -38,7 +38,10 @@ fn draw_chart<DB: DrawingBackend>(
     root.fill(&WHITE)?;
     let rows: Vec<_> = res.records.iter().filter(|r| r.scene == scene).collect();
     let methods = distinct(rows.iter().map(|r| r.method.clone()));
-    let budgets = distinct(rows.iter().map(|r| r.budget));
+    // In time order: the rows come in the order they were rendered, and a line through three
+    // budgets or more would zigzag.
+    let mut budgets = distinct(rows.iter().map(|r| r.budget));
+    budgets.sort_by(f64::total_cmp);
     let values: Vec<f64> = rows
         .iter()
         .map(|r| r.scores.get(metric))

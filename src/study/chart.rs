@@ -1,7 +1,7 @@
 //! Pictures of the study: error against time per scene (log–log, PNG and SVG) and side-by-side
 //! crops of each scene's hardest region, like the paper's Figures 4–8.
 
-use super::report::{distinct, metric_title, spread};
+use super::report::{budgets_in_order, distinct, metric_title, spread};
 use super::{Results, Showcase};
 use crate::error::{Error, Result};
 use crate::film::{srgb8, write_png_rgb8};
@@ -38,10 +38,7 @@ fn draw_chart<DB: DrawingBackend>(
     root.fill(&WHITE)?;
     let rows: Vec<_> = res.records.iter().filter(|r| r.scene == scene).collect();
     let methods = distinct(rows.iter().map(|r| r.method.clone()));
-    // In time order: the rows come in the order they were rendered, and a line through three
-    // budgets or more would zigzag.
-    let mut budgets = distinct(rows.iter().map(|r| r.budget));
-    budgets.sort_by(f64::total_cmp);
+    let budgets = budgets_in_order(rows.iter().copied());
     let values: Vec<f64> = rows
         .iter()
         .map(|r| r.scores.get(metric))

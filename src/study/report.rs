@@ -156,6 +156,15 @@ pub(super) fn distinct<T: PartialEq + Clone>(items: impl Iterator<Item = T>) -> 
     out
 }
 
+/// The budgets of `records` in time order, not in the order their rows were rendered: a study
+/// run in parts adds 300 s after 30 s after 120 s, and the tables' rows and the charts' lines
+/// follow this order.
+pub(super) fn budgets_in_order<'a>(records: impl Iterator<Item = &'a Record>) -> Vec<f64> {
+    let mut budgets = distinct(records.map(|r| r.budget));
+    budgets.sort_by(f64::total_cmp);
+    budgets
+}
+
 /// The paper's Table 1 row for a scene (the tiny twins share their full scene's row).
 fn paper_row(scene: &str) -> Option<(f64, f64, f64, &'static str)> {
     let base = scene.trim_end_matches("-tiny");
@@ -172,7 +181,7 @@ fn paper_row(scene: &str) -> Option<(f64, f64, f64, &'static str)> {
 pub fn markdown(res: &Results) -> String {
     let records = &res.records;
     let scenes = distinct(records.iter().map(|r| r.scene.clone()));
-    let budgets = distinct(records.iter().map(|r| r.budget));
+    let budgets = budgets_in_order(records.iter());
     let largest_of = |mix_only: bool| {
         records
             .iter()
@@ -473,9 +482,11 @@ mod tests {
         );
         // A longer budget without the paper's pairing leaves Table 1 where the pairing is.
         let mut longer = records.clone();
-        let mut main = rec("cornell-torus", "main", 1, 4.0);
-        main.budget = 30.0;
-        longer.push(main);
+        for budget in [30.0, 5.0] {
+            let mut main = rec("cornell-torus", "main", 1, 4.0);
+            main.budget = budget;
+            longer.push(main);
+        }
         let md = markdown(&Results {
             records: longer,
             showcases: vec![],
@@ -483,6 +494,14 @@ mod tests {
             reference_passes: vec![],
         });
         assert!(md.contains("### Table 1: MSE (LDR 0–255) at 10 s"), "{md}");
+        // The tables' rows in time order, whatever order the rows were rendered in.
+        let by_budget = &md[md.find("### MSE (LDR 0-255) by budget").expect("MSE table")..];
+        let row = |b: &str| {
+            by_budget
+                .find(&format!("| cornell-torus | {b} |"))
+                .expect(b)
+        };
+        assert!(row("5") < row("10") && row("10") < row("30"), "{md}");
         assert!(
             md.contains(
                 "| cornell-torus | 12.00 (10.00–14.00) (ibpt) | 8.00 | 6.00 (6.00–6.00) | 0.50 |"

@@ -561,13 +561,12 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // The checkpoint: the measured mix decides the time left again, with OMC's share rendered
     // (`pilot::checkpoint`); OMC takes its part of it first. Where MMLT gets no more time,
     // OMC has rendered all of it and nothing is left to decide.
-    if let (Some(run), Choice::Mix { mcmc_seconds }, Some((_, first))) =
-        (&mmlt, choice, &reasons.decision)
+    if let (Some(run), Choice::Mix { mcmc_seconds }, Some(_)) = (&mmlt, choice, &reasons.decision)
         && mcmc_seconds > 0.0
         && measured
         && !omc.even.partial
     {
-        let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha, first.mcmc_exponent);
+        let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha);
         reasons.checkpoint = Some((d, rates));
         choice = d.choice;
         omc_share(&mut omc, choice);

@@ -95,12 +95,12 @@ fn costs(rounds: &[Vec<Timed>]) -> Vec<f64> {
         .collect()
 }
 
-/// Mutations per pixel MMLT's pilot needs half way for its pace to be measured; with fewer it
-/// is taken as 1/t. On cornell-water at 30 s (9 at half way of a pilot of 1.5 s) the pace came
-/// out at 0.5, the job gave MMLT 1.6 s more instead of about half the time, and scored 39.9
-/// against 24–28; on the torus MMLT's first doubling from 32 per pixel fell as t^−0.41 and
-/// t^−0.49 in two runs, the later ones as t^−0.45 to t^−0.89 (docs/main-job.md, seventeenth
-/// round). At 120 s the pilot holds 90–120 per pixel.
+/// Mutations per pixel MMLT must hold before its pace is measured (`pace_check_at`): with
+/// fewer it is noise. On cornell-water at 30 s (9 per pixel half way through a pilot of 1.5 s)
+/// a pace came out at 0.5, the job gave MMLT 1.6 s more instead of about half the time, and
+/// scored 39.9 against 24–28; on the torus MMLT's first doubling from 32 per pixel fell as
+/// t^−0.41 and t^−0.49 in two runs, the later ones as t^−0.45 to t^−0.89 (docs/main-job.md,
+/// seventeenth round).
 const PACE_ROUNDS: u64 = 32;
 
 /// How fast a pilot's error falls, from its error at two pass counts: `k` in error ∝ passes^−k,
@@ -282,8 +282,18 @@ fn first_point((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> (u64, f64) {
 
 /// MMLT's pilot on α·I: its start-up (bounded by half of what is left), then a share of rounds,
 /// in two independent halves of chains; then the decision from both renders' measured rates
-/// (OMC's `e`, measured before the pilot: OMC does not render during it). The run goes on if
-/// the job mixes.
+/// (OMC's `e`, measured before the pilot: OMC does not render during it), MMLT's carried at
+/// 1/t. The run goes on if the job mixes.
+///
+/// A pace measured over the pilot's second half (a span of 2 in chain time) is mostly noise,
+/// and it is carried over a span of 10–20 to the job's end: on cornell-water at 300 s it came
+/// out at the floor of 0.5, the job gave MMLT no more time, and nothing later could correct
+/// that, as the pace check only follows a share. Carried at 1/t, the same jobs gave MMLT
+/// 10–15% of the budget and scored 9.30 and 9.63 against 9.73 and 10.48 (seeds 1 and 2; a
+/// third made the same choice both ways), and at 120 s 11.34 against 12.00; the torus at
+/// 120 s mixed more and scored the same (1.71 against 1.72). An over-estimated pace is what
+/// the pace check measures again, over MMLT's own render (docs/main-job.md, thirty-second
+/// round).
 pub(super) fn mcmc<'a>(
     job: &Job<'a>,
     omc: &Halved,
@@ -300,19 +310,8 @@ pub(super) fn mcmc<'a>(
         importance: None,
     };
     let mut run = MmltRun::start(job.scene, target, &settings, 2);
-    let pilot = MCMC_PILOT * job.s.seconds;
-    let end = run.seconds() + pilot;
-    // MMLT's pace, from its error inside the mask as its halves show it half way and at the end.
-    let inside = |run: &MmltRun| (run.rounds(), e.mcmc(omc, run, alpha)[1]);
-    run.run(Budget::Seconds(end - 0.5 * pilot));
-    let first = inside(&run);
-    run.run(Budget::Seconds(end));
-    let pace = if first.0 < PACE_ROUNDS {
-        1.0
-    } else {
-        exponent(first, inside(&run))
-    };
-    let rates = rates(omc, e, &run, alpha, pace);
+    run.run(Budget::Seconds(run.seconds() + MCMC_PILOT * job.s.seconds));
+    let rates = rates(omc, e, &run, alpha);
     let d = kept(decide(&rates, job.left()));
     (run, d, rates)
 }
@@ -336,30 +335,29 @@ fn kept(mut d: Decision) -> Decision {
 /// noise hid the error MMLT's two halves share; against OMC's whole share it shows (on
 /// cornell-torus at 120 s MMLT's error inside the mask was twice what its halves showed, and
 /// the mix lost to OMC alone: docs/main-job.md, seventeenth round). MMLT's rate is still
-/// projected at the pace its pilot measured (`pace`, as `exponent`).
+/// carried at 1/t, as at the pilot.
 pub(super) fn checkpoint(
     job: &Job,
     omc: &Halved,
     run: &MmltRun,
     alpha: &[f32],
-    pace: f64,
 ) -> (Decision, Rates) {
     let e = OmcErrors::measure(omc, alpha);
-    let rates = rates(omc, &e, run, alpha, pace);
+    let rates = rates(omc, &e, run, alpha);
     (kept(decide(&rates, job.left())), rates)
 }
 
 /// The share of MMLT's time after the checkpoint that it renders before its pace is checked.
 const PACE_CHECK_SHARE: f64 = 1.0 / 3.0;
-/// The slowest pace the check may measure: error ∝ t^−MCMC_K_MIN. Below the pilot's K_MIN,
-/// as MMLT's chains can stop finding what they have not found yet: on `caustic` at 120 s its
-/// error inside a mask that held the floor fell as about t^−0.4 from 6 to 54 s.
+/// The slowest pace the check may measure: error ∝ t^−MCMC_K_MIN. Below the partner pilots'
+/// K_MIN, as MMLT's chains can stop finding what they have not found yet: on `caustic` at
+/// 120 s its error inside a mask that held the floor fell as about t^−0.4 from 6 to 54 s.
 const MCMC_K_MIN: f64 = 0.2;
 
 /// Where MMLT's pace is checked after the checkpoint, as the run's seconds: once it has
 /// rendered `PACE_CHECK_SHARE` of the `more` seconds the checkpoint gave it, where that at
 /// least doubles its chains' seconds (a pace measured over less is mostly noise) and its
-/// pilot's rounds were enough for a pace (`PACE_ROUNDS`). None: no check.
+/// rounds are enough for a pace (`PACE_ROUNDS`). None: no check.
 pub(super) fn pace_check_at(run: &MmltRun, more: f64) -> Option<f64> {
     let first = PACE_CHECK_SHARE * more;
     let chains = run.chain_seconds();
@@ -368,11 +366,11 @@ pub(super) fn pace_check_at(run: &MmltRun, more: f64) -> Option<f64> {
 
 /// The decision again, part way into MMLT's share: MMLT's pace measured over its own render
 /// so far, from its whole error inside the mask at the checkpoint (`at`) and now, against the
-/// same OMC render; the time left split by `decide` at that pace. The pilot's pace comes from
-/// its halves over a few seconds, where MMLT's error falls as 1/t; over its whole share on
-/// `caustic` (a mask that held the floor) it fell as t^−0.4, the job predicted the mix at
-/// 0.24 against OMC alone's 0.37, and scored 1.22× BPT alone (docs/main-job.md, nineteenth
-/// round). Where the error cannot be measured at either point the pace stays the pilot's.
+/// same OMC render; the time left split by `decide` at that pace. Until then MMLT is carried
+/// at 1/t; over its whole share on `caustic` (a mask that held the floor) its error fell as
+/// t^−0.4, the job predicted the mix at 0.24 against OMC alone's 0.37, and scored 1.22× BPT
+/// alone (docs/main-job.md, nineteenth round). Where the error cannot be measured at either
+/// point the pace stays 1/t.
 pub(super) fn pace_check(
     job: &Job,
     omc: &Halved,
@@ -381,7 +379,7 @@ pub(super) fn pace_check(
     at: &Rates,
 ) -> (Decision, Rates) {
     let e = OmcErrors::measure(omc, alpha);
-    let now = rates(omc, &e, run, alpha, at.mcmc_exponent);
+    let now = rates(omc, &e, run, alpha);
     let rates = Rates {
         mcmc_exponent: measured_pace(at, &now),
         ..now
@@ -418,7 +416,7 @@ fn measured_pace(at: &Rates, now: &Rates) -> f64 {
 /// its target would hold there (`mcmc_alone_factors`): below the switch, on `stress` at 30 s, the
 /// mix at an MMLT share of 0.45 scored 200 against MMLT alone's 138 (docs/main-job.md,
 /// twenty-first round).
-fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -> Rates {
+fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32]) -> Rates {
     let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, run, alpha);
     let (u, v) = (omc.even.seconds, run.chain_seconds());
     let [grows_out, grows_in] = mcmc_alone_factors(&[&omc.even.film, &omc.odd], alpha);
@@ -436,7 +434,7 @@ fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32], pace: f64) -
         mcmc_startup: run.seconds() - run.chain_seconds(),
         omc_seconds: u,
         mcmc_seconds: v,
-        mcmc_exponent: pace,
+        mcmc_exponent: 1.0,
     }
 }
 

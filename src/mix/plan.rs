@@ -160,10 +160,12 @@ pub struct Rates {
     /// Seconds OMC and MMLT's chains have rendered so far.
     pub omc_seconds: f64,
     pub mcmc_seconds: f64,
-    /// `k` in MMLT's error ∝ t^−k, as its pilot measured it (1: 1/t). Inside the mask of
+    /// `k` in MMLT's error ∝ t^−k: 1 (1/t) at the pilot and the checkpoint, and as measured
+    /// over MMLT's own render at the pace check (`pilot::pace_check`). Inside the mask of
     /// cornell-torus MMLT's LDR error fell as t^−0.4 to t^−0.9 per doubling of its mutations,
-    /// ×0.11 from 32 to 1024 per pixel where 1/t gives ×0.03, and a mix predicted at 1/t lost
-    /// to OMC alone (docs/main-job.md, seventeenth round).
+    /// ×0.11 from 32 to 1024 per pixel where 1/t gives ×0.03 (docs/main-job.md, seventeenth
+    /// round); a pace measured over the pilot's few seconds was noise, and starved MMLT where
+    /// it came out low (thirty-second round).
     pub mcmc_exponent: f64,
 }
 

@@ -285,15 +285,15 @@ fn first_point((n1, e1): (u64, f64), (n2, e2): (u64, f64)) -> (u64, f64) {
 /// (OMC's `e`, measured before the pilot: OMC does not render during it), MMLT's carried at
 /// 1/t. The run goes on if the job mixes.
 ///
-/// A pace measured over the pilot's second half (a span of 2 in chain time) is mostly noise,
-/// and it is carried over a span of 10–20 to the job's end: on cornell-water at 300 s it came
-/// out at the floor of 0.5, the job gave MMLT no more time, and nothing later could correct
-/// that, as the pace check only follows a share. Carried at 1/t, the same jobs gave MMLT
-/// 10–15% of the budget and scored 9.30 and 9.63 against 9.73 and 10.48 (seeds 1 and 2; a
-/// third made the same choice both ways), and at 120 s 11.34 against 12.00; the torus at
-/// 120 s mixed more and scored the same (1.71 against 1.72). An over-estimated pace is what
-/// the pace check measures again, over MMLT's own render (docs/main-job.md, thirty-second
-/// round).
+/// A pace measured over the pilot's second half (a span of 2 in chain time, its first
+/// seconds) is not the pace of a longer render, and it is carried over a span of 10–20 to the
+/// job's end: on cornell-water at 300 s it came out at the floor of 0.5 on three seeds of
+/// three, the job gave MMLT no more time, and nothing later could correct that, as the pace
+/// check only follows a share. Carried at 1/t, the same jobs gave MMLT 15–18% of the budget on
+/// two seeds and scored 9.30 and 9.63 against 9.73 and 10.48 (the third made the same choice
+/// both ways), and at 120 s 11.34 against 12.00; on the torus at 120 s they mixed more and
+/// scored 1.71 and 1.71 against 1.72 and 1.76. Too fast a pace is what the pace check measures
+/// again, over MMLT's own render (docs/main-job.md, thirty-second round).
 pub(super) fn mcmc<'a>(
     job: &Job<'a>,
     omc: &Halved,

@@ -164,8 +164,8 @@ pub struct Rates {
     /// over MMLT's own render at the pace check (`pilot::pace_check`). Inside the mask of
     /// cornell-torus MMLT's LDR error fell as t^−0.4 to t^−0.9 per doubling of its mutations,
     /// ×0.11 from 32 to 1024 per pixel where 1/t gives ×0.03 (docs/main-job.md, seventeenth
-    /// round); a pace measured over the pilot's few seconds was noise, and starved MMLT where
-    /// it came out low (thirty-second round).
+    /// round); a pace measured over the pilot's few seconds came out low and starved MMLT
+    /// (thirty-second round).
     pub mcmc_exponent: f64,
 }
 

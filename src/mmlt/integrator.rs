@@ -791,12 +791,14 @@ fn bootstrap(scene: &Scene, target: Target, s: &MmltSettings, depths: &[u32]) ->
         let ys: Vec<f32> = (done * nd..(done + batch) * nd)
             .into_par_iter()
             .map_init(
-                || Scratch::new(s.max_depth),
-                |scratch, id| {
+                || {
+                    let sampler = MltSampler::new(s.seed, 0, 0, s.sigma, s.large_step);
+                    (Scratch::new(s.max_depth), sampler)
+                },
+                |(scratch, sampler), id| {
                     let depth = depths[id % nd];
-                    let mut sampler =
-                        MltSampler::new(s.seed, id as u64, id as u64, s.sigma, s.large_step);
-                    evaluate(scene, &mut sampler, depth, target, scratch).y
+                    sampler.restart(id as u64, id as u64);
+                    evaluate(scene, sampler, depth, target, scratch).y
                 },
             )
             .collect();

@@ -44,17 +44,40 @@ static TABLE: LazyLock<Table> = LazyLock::new(|| {
 });
 
 /// A standard normal number from 64 random bits. The first try takes 32 of them (layer, sign,
-/// position); the rare further tries draw from hashes of `bits`.
+/// position) and is accepted 99% of the time, so it is inlined into MMLT's primary-sample read;
+/// the rare further tries (`retry`) draw from hashes of `bits`.
+#[inline(always)]
 pub fn normal(bits: u64) -> f32 {
     let t = &*TABLE;
-    let (mut b, mut attempt) = (bits, 0u64);
+    let (layer, sign) = layer_and_sign(bits);
+    let z = to_unit_f32(bits << 32) * t.x[layer];
+    if z < t.x[layer + 1] {
+        return sign * z;
+    }
+    retry(bits, z)
+}
+
+/// Layer and sign of a try from its bits.
+#[inline(always)]
+fn layer_and_sign(b: u64) -> (usize, f32) {
+    let layer = (b & (LAYERS as u64 - 1)) as usize;
+    (layer, if b & 128 == 0 { 1.0 } else { -1.0 })
+}
+
+/// The tries after a first one whose point `z` lay right of the next layer's edge: the curve
+/// tested, or in layer 0 a tail number drawn (Marsaglia's tail method), then new points.
+#[cold]
+fn retry(bits: u64, first_z: f32) -> f32 {
+    let t = &*TABLE;
+    let (mut b, mut z, mut attempt) = (bits, first_z, 0u64);
     loop {
         attempt += 1;
-        let layer = (b & (LAYERS as u64 - 1)) as usize;
-        let sign = if b & 128 == 0 { 1.0 } else { -1.0 };
-        let z = to_unit_f32(b << 32) * t.x[layer];
-        if z < t.x[layer + 1] {
-            return sign * z;
+        let (layer, sign) = layer_and_sign(b);
+        if attempt > 1 {
+            z = to_unit_f32(b << 32) * t.x[layer];
+            if z < t.x[layer + 1] {
+                return sign * z;
+            }
         }
         let more = mix64(bits ^ attempt.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let (u1, u2) = (to_unit_f32(more), to_unit_f32(more << 24));

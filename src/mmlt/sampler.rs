@@ -81,7 +81,7 @@ pub struct MltSampler {
 impl MltSampler {
     /// A state whose first reading is a large step: uniform numbers keyed by `init`.
     pub fn new(seed: u64, init: u64, chain: u64, sigma: f32, large_step_probability: f32) -> Self {
-        MltSampler {
+        let mut s = MltSampler {
             seed,
             chain,
             sigma,
@@ -94,10 +94,28 @@ impl MltSampler {
             accept_u: 0.0,
             stream: CAMERA_STREAM,
             sample_index: 0,
-            // The initial state is keyed by `init`: a chain started from bootstrap sample
-            // `init` reproduces it.
-            mutation_rng: Rng::new(seed ^ INIT_KEY, init, 0),
-        }
+            mutation_rng: Rng::new(0, 0, 0),
+        };
+        s.restart(init, chain);
+        s
+    }
+
+    /// This sampler as `new` would make it with the same seed and step sizes, keeping its
+    /// buffers: the bootstrap makes a million such states, and growing each one's from nothing
+    /// put 8% of a short MMLT run's instructions in malloc and realloc.
+    pub fn restart(&mut self, init: u64, chain: u64) {
+        self.chain = chain;
+        self.x.clear();
+        self.iteration = 0;
+        self.mutation = 0;
+        self.large_step = true;
+        self.last_large_step = 0;
+        self.accept_u = 0.0;
+        self.stream = CAMERA_STREAM;
+        self.sample_index = 0;
+        // The initial state is keyed by `init`: a chain started from bootstrap sample `init`
+        // reproduces it.
+        self.mutation_rng = Rng::new(self.seed ^ INIT_KEY, init, 0);
     }
 
     /// Propose a new state: decide between a large and a small step (the dimensions themselves
@@ -151,25 +169,20 @@ impl MltSampler {
         &self.x
     }
 
-    /// Bring dimension `index` up to date for the current proposal.
-    fn ensure_ready(&mut self, index: usize) {
+    /// Bring dimension `index` up to date for the current proposal and return its value. Every
+    /// number a walk reads comes through here (18% of MMLT's chains on a Zen 1 host, in a
+    /// function call of its own), so it is inlined, the rare cases (a new dimension, a
+    /// ziggurat retry) are out of line, and the value is returned rather than read back
+    /// (BENCHMARKS.md, "The primary-sample read").
+    #[inline(always)]
+    fn ensure_ready(&mut self, index: usize) -> f32 {
         // This dimension's random bits for this mutation, independent of the order in which
         // dimensions are read: the low 24 a uniform (a catch-up or a large step), the high 40
         // a small step.
         let bits = self.mutation_rng.hash(index as u64);
         let uniform = to_unit_f32(bits << 40);
         if index >= self.x.len() {
-            // A dimension never read before: in an eager chain it would hold a uniform number
-            // (from the first state or a later accepted large step), so it starts as one.
-            self.x.resize(
-                index + 1,
-                PrimarySample {
-                    value: f32::NAN,
-                    backup: f32::NAN,
-                    last_modified: UNREAD,
-                    modify_backup: UNREAD,
-                },
-            );
+            self.grow(index);
         }
         let (large, iteration, last_large, sigma) = (
             self.large_step,
@@ -181,33 +194,56 @@ impl MltSampler {
         // Saved before the catch-up, so a rejection leaves the state exactly as it was; a stale
         // value is caught up again, with an equally uniform number, when next read.
         xi.save();
-        if large {
-            xi.value = uniform;
+        let value = if large {
+            uniform
         } else {
             if xi.last_modified == UNREAD || xi.last_modified < last_large {
                 xi.value = uniform;
                 xi.last_modified = last_large;
             }
             let n_small = iteration - xi.last_modified;
-            let step = normal(bits >> 24) * sigma * (n_small as f32).sqrt();
+            // One step is the common case: its √1 needs neither the conversion nor the root.
+            let z = normal(bits >> 24) * sigma;
+            let step = if n_small == 1 {
+                z
+            } else {
+                z * (n_small as f32).sqrt()
+            };
             let mut v = xi.value + step;
             v -= v.floor();
             // -tiny wraps to exactly 1.0 in f32; 1 ≡ 0 on the torus.
             if v >= 1.0 {
                 v = 0.0;
             }
-            xi.value = v;
-        }
+            v
+        };
+        xi.value = value;
         xi.last_modified = iteration;
+        value
+    }
+
+    /// Dimensions never read before, up to `index`: in an eager chain each would hold a uniform
+    /// number (from the first state or a later accepted large step), so each starts as one.
+    #[cold]
+    fn grow(&mut self, index: usize) {
+        self.x.resize(
+            index + 1,
+            PrimarySample {
+                value: f32::NAN,
+                backup: f32::NAN,
+                last_modified: UNREAD,
+                modify_backup: UNREAD,
+            },
+        );
     }
 }
 
 impl Sampler for MltSampler {
+    #[inline]
     fn next_1d(&mut self) -> f32 {
         let index = self.stream + STREAM_COUNT * self.sample_index;
         self.sample_index += 1;
-        self.ensure_ready(index);
-        self.x[index].value
+        self.ensure_ready(index)
     }
 }
 

@@ -45,40 +45,43 @@ static TABLE: LazyLock<Table> = LazyLock::new(|| {
 
 /// A standard normal number from 64 random bits. The first try takes 32 of them (layer, sign,
 /// position) and is accepted 99% of the time, so it is inlined into MMLT's primary-sample read;
-/// the rare further tries (`retry`) draw from hashes of `bits`.
+/// only where it fails does `ziggurat` run, which makes that try again and the rare further
+/// ones, drawn from hashes of `bits`.
 #[inline(always)]
 pub fn normal(bits: u64) -> f32 {
-    let t = &*TABLE;
-    let (layer, sign) = layer_and_sign(bits);
-    let z = to_unit_f32(bits << 32) * t.x[layer];
-    if z < t.x[layer + 1] {
-        return sign * z;
+    match one_try(bits) {
+        Ok(z) => z,
+        Err(_) => ziggurat(bits),
     }
-    retry(bits, z)
 }
 
-/// Layer and sign of a try from its bits.
+/// One try from bits `b`: the signed number where the point lies left of the next layer's
+/// edge, else its layer, sign and position for the test beyond it.
 #[inline(always)]
-fn layer_and_sign(b: u64) -> (usize, f32) {
+fn one_try(b: u64) -> Result<f32, (usize, f32, f32)> {
+    let t = &*TABLE;
     let layer = (b & (LAYERS as u64 - 1)) as usize;
-    (layer, if b & 128 == 0 { 1.0 } else { -1.0 })
+    let sign = if b & 128 == 0 { 1.0 } else { -1.0 };
+    let z = to_unit_f32(b << 32) * t.x[layer];
+    if z < t.x[layer + 1] {
+        Ok(sign * z)
+    } else {
+        Err((layer, sign, z))
+    }
 }
 
-/// The tries after a first one whose point `z` lay right of the next layer's edge: the curve
-/// tested, or in layer 0 a tail number drawn (Marsaglia's tail method), then new points.
+/// The whole method: tries until one is accepted, each past the layer's edge tested against
+/// the curve, or in layer 0 answered by a tail number (Marsaglia's tail method).
 #[cold]
-fn retry(bits: u64, first_z: f32) -> f32 {
+fn ziggurat(bits: u64) -> f32 {
     let t = &*TABLE;
-    let (mut b, mut z, mut attempt) = (bits, first_z, 0u64);
+    let (mut b, mut attempt) = (bits, 0u64);
     loop {
         attempt += 1;
-        let (layer, sign) = layer_and_sign(b);
-        if attempt > 1 {
-            z = to_unit_f32(b << 32) * t.x[layer];
-            if z < t.x[layer + 1] {
-                return sign * z;
-            }
-        }
+        let (layer, sign, z) = match one_try(b) {
+            Ok(z) => return z,
+            Err(rest) => rest,
+        };
         let more = mix64(bits ^ attempt.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let (u1, u2) = (to_unit_f32(more), to_unit_f32(more << 24));
         if layer == 0 {

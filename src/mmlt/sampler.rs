@@ -81,7 +81,7 @@ pub struct MltSampler {
 impl MltSampler {
     /// A state whose first reading is a large step: uniform numbers keyed by `init`.
     pub fn new(seed: u64, init: u64, chain: u64, sigma: f32, large_step_probability: f32) -> Self {
-        let mut s = MltSampler {
+        MltSampler {
             seed,
             chain,
             sigma,
@@ -94,28 +94,28 @@ impl MltSampler {
             accept_u: 0.0,
             stream: CAMERA_STREAM,
             sample_index: 0,
-            mutation_rng: Rng::new(0, 0, 0),
-        };
-        s.restart(init, chain);
-        s
+            // The initial state is keyed by `init`: a chain started from bootstrap sample
+            // `init` reproduces it.
+            mutation_rng: Rng::new(seed ^ INIT_KEY, init, 0),
+        }
     }
 
     /// This sampler as `new` would make it with the same seed and step sizes, keeping its
-    /// buffers: the bootstrap makes a million such states, and growing each one's from nothing
-    /// put 8% of a short MMLT run's instructions in malloc and realloc.
+    /// state's buffer: the bootstrap makes a million such states, and growing each one's from
+    /// nothing put 8% of a short MMLT run's instructions in malloc and realloc.
     pub fn restart(&mut self, init: u64, chain: u64) {
-        self.chain = chain;
-        self.x.clear();
-        self.iteration = 0;
-        self.mutation = 0;
-        self.large_step = true;
-        self.last_large_step = 0;
-        self.accept_u = 0.0;
-        self.stream = CAMERA_STREAM;
-        self.sample_index = 0;
-        // The initial state is keyed by `init`: a chain started from bootstrap sample `init`
-        // reproduces it.
-        self.mutation_rng = Rng::new(self.seed ^ INIT_KEY, init, 0);
+        let mut x = std::mem::take(&mut self.x);
+        x.clear();
+        *self = MltSampler {
+            x,
+            ..MltSampler::new(
+                self.seed,
+                init,
+                chain,
+                self.sigma,
+                self.large_step_probability,
+            )
+        };
     }
 
     /// Propose a new state: decide between a large and a small step (the dimensions themselves

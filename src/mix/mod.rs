@@ -560,10 +560,10 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     }
     // The checkpoint: the measured mix decides the time left again, with OMC's share rendered
     // (`pilot::checkpoint`); OMC takes its part of it first. Where MMLT gets no more time,
-    // OMC has rendered all of it and nothing is left to decide.
-    if let (Some(run), Choice::Mix { mcmc_seconds }, Some(_)) = (&mmlt, choice, &reasons.decision)
+    // OMC has rendered all of it and nothing is left to decide. MMLT has a run here only after
+    // its pilot, which only the measured job makes.
+    if let (Some(run), Choice::Mix { mcmc_seconds }) = (&mmlt, choice)
         && mcmc_seconds > 0.0
-        && measured
         && !omc.even.partial
     {
         let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha);

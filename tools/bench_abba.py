@@ -9,9 +9,9 @@ speed falls on both. Per scene of the paper (default cornell-torus, cornell-wate
 bathroom): BPT at 256², 4 spp, timed by the header's mixmc.seconds (the render loop); MMLT on
 the 64² twin, 256 mutations per pixel, timed by mixmc.chain_seconds (the chains: no start-up)
 and, from the same runs, mixmc.seconds.bootstrap (its start-up's bootstrap, 100 000 samples per
-depth, which the main job pays inside its budget); and PT on the Cornell box (bench_pt's scene, 32 spp). Prints a Markdown table: each build's
-median seconds and the old ÷ new ratio of each pair (median, min, max; above 1 = new faster).
-A benchmark, not a test: nothing is asserted.
+depth, which the main job pays inside its budget); and PT on the Cornell box (bench_pt's scene,
+32 spp). Prints a Markdown table: each build's median seconds and the old ÷ new ratio of each
+pair (median, min, max; above 1 = new faster). A benchmark, not a test: nothing is asserted.
 """
 import argparse
 import os

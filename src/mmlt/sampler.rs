@@ -256,6 +256,50 @@ mod tests {
         (0..n).map(|_| s.next_1d()).collect()
     }
 
+    /// The bootstrap weighs each sample with a restarted sampler and a chain starts from it with
+    /// a new one: the two must read the same numbers, whatever the restarted one held before.
+    #[test]
+    fn a_restarted_sampler_is_a_new_one() {
+        let mut used = MltSampler::new(3, 7, 7, 0.01, 0.3);
+        read(&mut used, LIGHT_STREAM, 9);
+        used.accept();
+        for i in 0..20 {
+            used.start_iteration();
+            read(&mut used, CAMERA_STREAM, 3 + i % 4);
+            if i % 3 == 0 {
+                used.reject();
+            } else {
+                used.accept();
+            }
+        }
+        used.restart(11, 12);
+        let mut fresh = MltSampler::new(3, 11, 12, 0.01, 0.3);
+        for s in [&mut used, &mut fresh] {
+            read(s, CAMERA_STREAM, 4);
+            read(s, CONNECTION_STREAM, 2);
+            s.accept();
+            for _ in 0..5 {
+                s.start_iteration();
+                read(s, CAMERA_STREAM, 5);
+                s.accept();
+            }
+        }
+        let bits = |s: &MltSampler| {
+            (s.state().iter())
+                .map(|p| (p.value.to_bits(), p.last_modified))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&used), bits(&fresh));
+        assert!(used.state().len() >= 3 * 4 && used.state()[0].last_modified == 5);
+        for s in [&mut used, &mut fresh] {
+            s.start_iteration();
+        }
+        assert_eq!(
+            read(&mut used, LIGHT_STREAM, 3),
+            read(&mut fresh, LIGHT_STREAM, 3)
+        );
+    }
+
     #[test]
     fn reject_restores_values_and_stamps_exactly() {
         let mut s = MltSampler::new(3, 7, 7, 0.01, 0.3);

@@ -292,7 +292,65 @@ pub fn markdown(res: &Results) -> String {
             }
         }
     }
+    s.push_str(&slow_runs(records));
     s
+}
+
+/// A run listed by `slow_runs` did less than this share of its fastest seed's work.
+const SLOW: f64 = 0.85;
+
+/// A measure of a run's work: its name in the table, and its value.
+type Work = (&'static str, fn(&Record) -> f64);
+
+/// Rows that did less than `SLOW` of the work of the fastest seed of their scene, method and
+/// budget, by every measure of work that tells their seeds apart (passes, mutations per pixel;
+/// the main job's fixed 16-pass snapshot above its switch does not). On a shared host a 30-s run
+/// lost 20–50% of its work to other tenants with no steal in `/proc/stat`, and its score alone
+/// cannot tell that from its method (docs/main-job.md, thirty-fourth round). Where a decision
+/// moves work from one measure to the other (the main job), one of them rises and the row is not
+/// listed. Empty when no row is.
+fn slow_runs(records: &[Record]) -> String {
+    let measures: [Work; 2] = [
+        ("passes", |r| r.spp),
+        ("mutations/px", |r| r.mutations_per_pixel),
+    ];
+    let mut rows = String::new();
+    for r in records {
+        let peers: Vec<&Record> = (records.iter())
+            .filter(|p| p.scene == r.scene && p.method == r.method && p.budget == r.budget)
+            .collect();
+        // (share of the fastest seed's, measure) for each measure this row has and its seeds
+        // differ in.
+        let shares: Vec<(f64, &str)> = (measures.iter())
+            .filter(|(_, get)| get(r) > 0.0 && peers.iter().any(|p| get(p) != get(r)))
+            .map(|(name, get)| {
+                let fastest = peers.iter().map(|p| get(p)).fold(0.0, f64::max);
+                (get(r) / fastest, *name)
+            })
+            .collect();
+        if shares.is_empty() || shares.iter().any(|(share, _)| *share >= SLOW) {
+            continue;
+        }
+        let (share, name) = shares
+            .iter()
+            .fold(shares[0], |a, b| if b.0 < a.0 { *b } else { a });
+        let _ = writeln!(
+            rows,
+            "| {} | {} | {} | {} | {} | {} | {share:.2} ({name}) |",
+            r.scene, r.method, r.budget, r.seed, r.spp, r.mutations_per_pixel
+        );
+    }
+    if rows.is_empty() {
+        return rows;
+    }
+    format!(
+        "\n### Runs that did less work than their fastest seed\n\nOn a shared host other tenants \
+         can take a fifth to half of a run's work; rows below {SLOW} of the fastest seed's work of \
+         the same scene, method and budget, by every measure of work their seeds differ in, are \
+         listed so that a slow host is not read as a slow method. The means above include them.\n\n\
+         | scene | method | budget (s) | seed | passes | mutations/px | share of the fastest seed's |\n\
+         |---|---|---|---|---|---|---|\n{rows}"
+    )
 }
 
 /// Methods that render the whole image alone, the peers the mixes must beat (issue 23's goal);
@@ -520,6 +578,51 @@ mod tests {
                 .unwrap()
                 .starts_with("cornell-torus,ibpt,ibpt,10,1,")
         );
+    }
+
+    #[test]
+    fn runs_that_did_far_less_work_than_their_fastest_seed_are_listed() {
+        let with = |method: &str, seed: u64, spp: f64, mutations: f64| Record {
+            spp,
+            mutations_per_pixel: mutations,
+            ..rec("plates", method, seed, 1.0)
+        };
+        let md = |records: Vec<Record>| {
+            markdown(&Results {
+                records,
+                showcases: vec![],
+                partial: false,
+                reference_passes: vec![],
+            })
+        };
+        // A seed at 0.73 of the fastest's passes is listed; one at 0.87 is not.
+        let slow = md(vec![
+            with("pt", 1, 1285.0, 0.0),
+            with("pt", 2, 943.0, 0.0),
+            with("pt", 3, 1113.0, 0.0),
+        ]);
+        assert!(
+            slow.contains("| plates | pt | 10 | 2 | 943 | 0 | 0.73 (passes) |"),
+            "{slow}"
+        );
+        assert!(!slow.contains("| plates | pt | 10 | 3 |"), "{slow}");
+        // A decision that gave MMLT more time: fewer passes, more mutations, not listed.
+        let moved = md(vec![
+            with("main", 1, 1000.0, 100.0),
+            with("main", 2, 500.0, 400.0),
+        ]);
+        assert!(!moved.contains("Runs that did less work"), "{moved}");
+        // The same 16-pass snapshot on every seed tells nothing; the mutations do.
+        let switched = md(vec![
+            with("main", 1, 16.0, 1038.0),
+            with("main", 2, 16.0, 805.0),
+        ]);
+        assert!(
+            switched.contains("| plates | main | 10 | 2 | 16 | 805 | 0.78 (mutations/px) |"),
+            "{switched}"
+        );
+        // One seed alone has no peer to be slower than.
+        assert!(!md(vec![with("pt", 1, 10.0, 0.0)]).contains("Runs that did less work"));
     }
 
     #[test]

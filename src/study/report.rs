@@ -52,12 +52,17 @@ pub fn spread(
     budget: f64,
     metric: Metric,
 ) -> Option<Spread> {
-    Spread::of(
-        records
-            .iter()
-            .filter(|r| r.scene == scene && r.method == method && r.budget == budget)
-            .map(|r| r.scores.get(metric)),
-    )
+    Spread::of(runs(records, scene, method, budget).map(|r| r.scores.get(metric)))
+}
+
+/// The rows of (scene, method, budget): one per seed.
+fn runs<'a>(
+    records: &'a [Record],
+    scene: &'a str,
+    method: &'a str,
+    budget: f64,
+) -> impl Iterator<Item = &'a Record> {
+    (records.iter()).filter(move |r| r.scene == scene && r.method == method && r.budget == budget)
 }
 
 const CSV_HEADER: &str = "scene,method,omc,budget_s,seed,seconds,spp,mutations_per_pixel,complex_fraction,mcmc_share,mse_ldr,relmse,flip";
@@ -316,9 +321,7 @@ fn slow_runs(records: &[Record]) -> String {
     ];
     let mut rows = String::new();
     for r in records {
-        let peers: Vec<&Record> = (records.iter())
-            .filter(|p| p.scene == r.scene && p.method == r.method && p.budget == r.budget)
-            .collect();
+        let peers: Vec<&Record> = runs(records, &r.scene, &r.method, r.budget).collect();
         // (share of the fastest seed's, measure) for each measure this row has and its seeds
         // differ in.
         let shares: Vec<(f64, &str)> = (measures.iter())
@@ -328,12 +331,13 @@ fn slow_runs(records: &[Record]) -> String {
                 (get(r) / fastest, *name)
             })
             .collect();
-        if shares.is_empty() || shares.iter().any(|(share, _)| *share >= SLOW) {
+        if shares.iter().any(|(share, _)| *share >= SLOW) {
             continue;
         }
-        let (share, name) = shares
-            .iter()
-            .fold(shares[0], |a, b| if b.0 < a.0 { *b } else { a });
+        // None where no measure tells the seeds apart.
+        let Some((share, name)) = shares.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) else {
+            continue;
+        };
         let _ = writeln!(
             rows,
             "| {} | {} | {} | {} | {} | {} | {share:.2} ({name}) |",

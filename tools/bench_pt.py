@@ -8,7 +8,9 @@ Renders fixtures/scenes/cornell-box.json (256x256, max_depth 8 = Mitsuba's 9) wi
     not scene loading, BVH building, the G-buffer or writing the EXR; wall time is shown beside it);
   - Mitsuba 3 llvm_ad_rgb and scalar_rgb on the exported scene, through tools/mitsuba_render.py
     (render calls only, not import or scene loading), runs+1 renders in one process: the first,
-    which compiles the JIT kernels, is reported apart as "cold" and left out of the median.
+    which compiles the JIT kernels, is reported apart as "cold" and left out of the median;
+  - on a host with AVX-512, llvm_ad_rgb again with its kernels compiled for 8 lanes (AVX2), the
+    code it runs on an AVX2 host: the two peers at one vector width on one machine.
 Every renderer uses all cores. Prints a Markdown section; --update FILE replaces (or appends) the
 section "Path tracing vs Mitsuba 3" in FILE. A benchmark, not a test: nothing is asserted.
 """
@@ -25,6 +27,8 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from mitsuba_render import host_flags  # noqa: E402
 SCENE = os.path.join(ROOT, "fixtures/scenes/cornell-box.json")
 TITLE = "## Path tracing vs Mitsuba 3"
 
@@ -62,10 +66,11 @@ def children_cpu():
     return ru.ru_utime + ru.ru_stime
 
 
-def bench_mitsuba(xml, variant, spp, runs, depth):
+def bench_mitsuba(xml, variant, spp, runs, depth, lanes=None):
     out = run([sys.executable, os.path.join(ROOT, "tools/mitsuba_render.py"), xml, "--variant", variant,
                "--spp", str(spp), "--max-depth", str(depth), "--runs", str(runs + 1),
-               "--pass-samples", str(256 * 256 * spp), "--json"])
+               "--pass-samples", str(256 * 256 * spp), "--json"]
+              + ([] if lanes is None else ["--llvm-lanes", str(lanes)]))
     res = json.loads(out.strip().splitlines()[-1])
     return res["seconds"][0], res["seconds"][1:], res["cpu_seconds"][1:], res["mitsuba"]
 
@@ -100,6 +105,10 @@ def main():
         for variant in ("llvm_ad_rgb", "scalar_rgb"):
             cold, warm, cpu, version = bench_mitsuba(xml, variant, a.spp, a.runs, depth)
             rows.append((f"Mitsuba {version} `{variant}`", cold, warm, cpu, ""))
+        if "avx512f" in host_flags():
+            cold, warm, cpu, version = bench_mitsuba(xml, "llvm_ad_rgb", a.spp, a.runs, depth, lanes=8)
+            rows.append((f"Mitsuba {version} `llvm_ad_rgb`, 8 lanes", cold, warm, cpu,
+                         "`--llvm-lanes 8`: its AVX2 code"))
     load_after = os.getloadavg()[0]
 
     ours = samples / statistics.median(rows[0][2])

@@ -15,6 +15,11 @@ reports every run, so that a benchmark can tell the first (cold) run from the wa
 Large renders are split into passes of at most --pass-samples path samples (Mitsuba's JIT variants
 hold a whole pass in memory); pass k of a run uses Mitsuba seed (seed * 4096 + k), and the passes
 are averaged. Exit codes: 0 success, 2 bad input.
+
+`--llvm-lanes N` (8 or 16; llvm_* variants only) compiles Dr.Jit's kernels for N lanes and the
+matching generic x86-64 level (v3: AVX2, v4: AVX-512) instead of the host's widest:
+on an AVX-512 host, `--llvm-lanes 8` is the code Mitsuba runs on an AVX2 host, so the two
+peers can be compared at one vector width on one machine (BENCHMARKS.md, issue 26).
 """
 import argparse
 import json
@@ -46,6 +51,46 @@ def pick_variant(mi, wanted):
     except Exception:
         mi.set_variant("scalar_rgb")
         return "scalar_rgb"
+
+
+# Dr.Jit's LLVM target per lane count: a generic CPU level and its features. Not 4 lanes on
+# x86-64-v2: Dr.Jit's kernels call FMA, which SSE4.2 lacks (it aborts compiling them).
+LLVM_TARGETS = {
+    8: ("x86-64-v3", "+sse4.2,+popcnt,+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+lzcnt"),
+    16: ("x86-64-v4", "+sse4.2,+popcnt,+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+lzcnt,"
+                      "+avx512f,+avx512vl,+avx512dq,+avx512bw,+avx512cd"),
+}
+
+
+def host_flags():
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((line.split(":", 1)[1].split() for line in f if line.startswith("flags")), [])
+    except OSError:
+        return []
+
+
+def set_llvm_lanes(lanes, variant):
+    """Compile Dr.Jit's LLVM kernels for `lanes` lanes from here on (`jit_llvm_set_target`, which
+    Dr.Jit's Python API does not expose; it takes effect once the backend is initialised)."""
+    import ctypes
+    import drjit as dr
+
+    if not variant.startswith("llvm_"):
+        fail("--llvm-lanes", f"only for llvm_* variants, not {variant}")
+    if lanes not in LLVM_TARGETS:
+        fail("--llvm-lanes", f"{lanes}: must be one of {', '.join(map(str, LLVM_TARGETS))}")
+    if lanes == 16 and "avx512f" not in host_flags():
+        fail("--llvm-lanes", "16 lanes need AVX-512, which this CPU does not have")
+    dr.eval(dr.llvm.Float(0.0) + 1.0)
+    core = os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so")
+    try:
+        set_target = ctypes.CDLL(core)._Z19jit_llvm_set_targetPKcS0_j
+    except (OSError, AttributeError) as e:
+        fail("--llvm-lanes", f"this Dr.Jit has no jit_llvm_set_target: {e}")
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint]
+    cpu, features = LLVM_TARGETS[lanes]
+    set_target(cpu.encode(), features.encode(), lanes)
 
 
 def render(mi, scene, integrator, width, height, spp, seed, pass_samples):
@@ -93,6 +138,7 @@ def main():
     ap.add_argument("--runs", type=int, default=1, help="render this many times (seeds seed, seed+1, ...); the EXR is the first [1]")
     ap.add_argument("--pass-samples", type=int, default=1 << 22, help="most path samples per Mitsuba render call [4194304]")
     ap.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    ap.add_argument("--llvm-lanes", type=int, help="compile the llvm_* kernels for 8 or 16 lanes [the host's widest]")
     a = ap.parse_args()
     if a.spp < 1 or a.runs < 1 or a.pass_samples < 1 or a.seed < 0:
         fail("arguments", "--spp, --runs and --pass-samples must be positive, --seed non-negative")
@@ -104,6 +150,8 @@ def main():
     import mitsuba as mi
 
     variant = pick_variant(mi, a.variant)
+    if a.llvm_lanes is not None:
+        set_llvm_lanes(a.llvm_lanes, variant)
     t0 = time.perf_counter()
     try:
         scene = mi.load_file(a.scene)
@@ -133,7 +181,7 @@ def main():
             "mixmc.seconds": float(seconds[0]),
         })
     result = {
-        "variant": variant, "mitsuba": mi.__version__, "width": width, "height": height,
+        "variant": variant, "llvm_lanes": a.llvm_lanes, "mitsuba": mi.__version__, "width": width, "height": height,
         "spp": a.spp, "samples": samples, "load_seconds": load_s, "seconds": seconds, "cpu_seconds": cpu_seconds,
         "samples_per_second": [samples / s for s in seconds], "output": a.output,
     }

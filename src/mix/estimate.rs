@@ -249,27 +249,37 @@ pub fn film_means(film: &Film, passes: u64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
 /// How many times the mix's MMLT error rate MCMC alone's would be, outside the mask and inside
 /// it, from OMC's film and the mask. A Metropolis estimate of a pixel of value `f` has a
 /// variance of about `b·f` per mutation, as the pixel draws `f/b` of the mutations: where MMLT's
-/// target grows from α·I (sum `b_α`) to every light path, D + I (sum `b`), a region's variance
-/// grows by `(b/b_α)·Σ Y(D + I)/Σ α·Y(I)` over it. The LDR slope at a pixel is the same for
-/// both, as both images hold D + I. First order only, and measured (docs/main-job.md,
-/// twenty-first round): on `stress` at 30 s it gave MCMC alone 33 where two MMLT renders'
+/// target grows from α·I (sum `b_α`) to every light path, D + I (sum `b`), a pixel's variance
+/// grows by `(b/b_α)·Y(D + I)/(α·Y(I))`. Its LDR error is that variance times the LDR slope² at
+/// the pixel's `level`, the same for both targets as both images hold D + I, so a side's error
+/// grows by `(b/b_α)·Σ s²·Y(D + I)/Σ s²·α·Y(I)` over its pixels. Weighed by luminance alone, a
+/// light seen inside the mask counted at its full power though the clamp holds its pixels at
+/// 255: on `lamp` (an emitter in a glass ball, 0.06% of the pixels and 47% of the luminance) that
+/// made the inside factor 131 where the slope gives 10.9, and carried MCMC alone to 3512 where
+/// MMLT alone scores 74 (docs/main-job.md, thirty-fifth round). First order only, and measured
+/// (twenty-first round): on `stress` at 30 s it gave MCMC alone 33 where two MMLT renders'
 /// difference gives 31; where the mask holds little of the light it overstates it (the torus at
 /// 120 s 22 where MMLT alone has about 6, the caustic at 30 s 10 for about 3). A region without
-/// light gives 0; one whose light the α·I target does not hold, infinity. `films` are the
-/// render's parts (its halves), summed: only ratios of sums count.
-pub fn mcmc_alone_factors(films: &[&Film], alpha: &[f32]) -> [f64; 2] {
-    // Per side of the mask (outside, inside): Σ Y(D + I) and Σ α·Y(I).
+/// light below the clamp gives 0; one whose light the α·I target does not hold, infinity.
+/// `films` are the render's parts (its halves), summed: only ratios of sums count.
+pub fn mcmc_alone_factors(films: &[&Film], alpha: &[f32], level: &[[f32; 3]]) -> [f64; 2] {
+    // b and b_α, over every pixel: Σ Y(D + I) and Σ α·Y(I).
+    let mut b = [0.0f64; 2];
+    // Per side of the mask (outside, inside): the same sums weighed by the LDR slope².
     let mut sums = [[0.0f64; 2]; 2];
     for film in films {
-        for ((d, i), a) in film.direct.iter().zip(&film.indirect).zip(alpha) {
-            let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
+        for (((d, i), a), l) in film.direct.iter().zip(&film.indirect).zip(alpha).zip(level) {
             let (d, i) = (luminance(*d) as f64, luminance(*i) as f64);
-            side[0] += d + i;
-            side[1] += *a as f64 * i;
+            let (all, target) = (d + i, *a as f64 * i);
+            b[0] += all;
+            b[1] += target;
+            let slope2 = l.iter().map(|&x| ldr_slope(x).powi(2)).sum::<f64>() / 3.0;
+            let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
+            side[0] += slope2 * all;
+            side[1] += slope2 * target;
         }
     }
-    let whole = |k: usize| sums[0][k] + sums[1][k];
-    let grows = whole(0) / whole(1);
+    let grows = b[0] / b[1];
     sums.map(|[all, target]| {
         if all <= 0.0 {
             0.0
@@ -444,9 +454,11 @@ mod tests {
         film.indirect[0] = Rgb::splat(1.0);
         film.indirect[1] = Rgb::splat(2.0);
         let alpha = [0.1, 1.0];
+        // Both pixels below the clamp, where the LDR slope weighs them alike.
+        let level = [[0.25f32; 3]; 2];
         // b = 2 + 2 = 4, b_α = 0.1 + 2 = 2.1.
         let grows = 4.0 / 2.1;
-        let [out, inside] = mcmc_alone_factors(&[&film], &alpha);
+        let [out, inside] = mcmc_alone_factors(&[&film], &alpha, &level);
         assert!((out / (grows * 2.0 / 0.1) - 1.0).abs() < 1e-5, "{out}");
         assert!((inside / grows - 1.0).abs() < 1e-5, "{inside}");
         // A render's two halves count as their sum: the same light split unevenly.
@@ -456,14 +468,47 @@ mod tests {
         let mut rest = film.clone();
         rest.direct[0] -= half.direct[0];
         rest.indirect[1] -= half.indirect[1];
-        assert_eq!(mcmc_alone_factors(&[&half, &rest], &alpha), [out, inside]);
+        assert_eq!(
+            mcmc_alone_factors(&[&half, &rest], &alpha, &level),
+            [out, inside]
+        );
         // No light outside: nothing to carry there.
         film.direct[0] = Rgb::ZERO;
         film.indirect[0] = Rgb::ZERO;
-        assert_eq!(mcmc_alone_factors(&[&film], &alpha)[0], 0.0);
+        assert_eq!(mcmc_alone_factors(&[&film], &alpha, &level)[0], 0.0);
         // Direct light only outside: MMLT's target on α·I holds none of it.
         film.direct[0] = Rgb::splat(1.0);
-        assert_eq!(mcmc_alone_factors(&[&film], &alpha)[0], f64::INFINITY);
+        assert_eq!(
+            mcmc_alone_factors(&[&film], &alpha, &level)[0],
+            f64::INFINITY
+        );
+    }
+
+    /// A light seen inside the mask, whose pixels the LDR clamp holds at 255, grows b (MCMC
+    /// alone spends its mutations there too) but adds no error of its own to the mask's side:
+    /// the side grows by b's growth and the rest of the side's light, as without it.
+    #[test]
+    fn a_light_the_clamp_holds_adds_no_error_to_its_side() {
+        // Inside the mask (α = 1): a pixel of indirect light 0.5 and one of direct light 40.
+        let mut film = Film::new(3, 1);
+        film.indirect[0] = Rgb::splat(0.5);
+        film.direct[1] = Rgb::splat(40.0);
+        // Outside (α = 0.1): indirect 0.5.
+        film.indirect[2] = Rgb::splat(0.5);
+        let alpha = [1.0, 1.0, 0.1];
+        let level = [[0.5f32; 3], [40.0; 3], [0.5; 3]];
+        let [out, inside] = mcmc_alone_factors(&[&film], &alpha, &level);
+        // b = 0.5 + 40 + 0.5 = 41, b_α = 0.5 + 0.05 = 0.55.
+        let grows = 41.0 / 0.55;
+        assert!((inside / grows - 1.0).abs() < 1e-5, "{inside}");
+        assert!((out / (grows / 0.1) - 1.0).abs() < 1e-5, "{out}");
+        // The same light below the clamp counts at its power.
+        let dim = [[0.5f32; 3]; 3];
+        let [_, unclamped] = mcmc_alone_factors(&[&film], &alpha, &dim);
+        assert!(
+            (unclamped / (grows * 40.5 / 0.5) - 1.0).abs() < 1e-5,
+            "{unclamped}"
+        );
     }
 
     /// Two estimates of one level with Gaussian noise σ_omc and σ_mcmc (LDR-linear range):

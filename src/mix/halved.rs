@@ -330,6 +330,11 @@ impl OmcErrors {
         [out, inside, whole]
     }
 
+    /// The smoothed beauty the errors are linearised at.
+    pub(super) fn level(&self) -> &[[f32; 3]] {
+        &self.level
+    }
+
     /// The share of the beauty's error that is the indirect light inside the mask: what the
     /// mask gives MMLT to fix.
     pub(super) fn mask_share(&self) -> f64 {

@@ -419,7 +419,7 @@ fn measured_pace(at: &Rates, now: &Rates) -> f64 {
 fn rates(omc: &Halved, e: &OmcErrors, run: &MmltRun, alpha: &[f32]) -> Rates {
     let [mcmc_out, mcmc_in, mcmc_whole] = e.mcmc(omc, run, alpha);
     let (u, v) = (omc.even.seconds, run.chain_seconds());
-    let [grows_out, grows_in] = mcmc_alone_factors(&[&omc.even.film, &omc.odd], alpha);
+    let [grows_out, grows_in] = mcmc_alone_factors(&[&omc.even.film, &omc.odd], alpha, e.level());
     // A side without light adds nothing, whatever MMLT's error there.
     let carried = |rate: f64, grows: f64| if grows == 0.0 { 0.0 } else { rate * grows };
     let whole_in = mcmc_in.max(mcmc_whole) * v;

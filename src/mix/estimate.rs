@@ -263,20 +263,28 @@ pub fn film_means(film: &Film, passes: u64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
 /// light below the clamp gives 0; one whose light the α·I target does not hold, infinity.
 /// `films` are the render's parts (its halves), summed: only ratios of sums count.
 pub fn mcmc_alone_factors(films: &[&Film], alpha: &[f32], level: &[[f32; 3]]) -> [f64; 2] {
+    let slope2: Vec<f64> = (level.iter())
+        .map(|l| l.iter().map(|&x| ldr_slope(x).powi(2)).sum::<f64>() / 3.0)
+        .collect();
     // b and b_α, over every pixel: Σ Y(D + I) and Σ α·Y(I).
     let mut b = [0.0f64; 2];
     // Per side of the mask (outside, inside): the same sums weighed by the LDR slope².
     let mut sums = [[0.0f64; 2]; 2];
     for film in films {
-        for (((d, i), a), l) in film.direct.iter().zip(&film.indirect).zip(alpha).zip(level) {
+        for (((d, i), a), s2) in film
+            .direct
+            .iter()
+            .zip(&film.indirect)
+            .zip(alpha)
+            .zip(&slope2)
+        {
             let (d, i) = (luminance(*d) as f64, luminance(*i) as f64);
             let (all, target) = (d + i, *a as f64 * i);
             b[0] += all;
             b[1] += target;
-            let slope2 = l.iter().map(|&x| ldr_slope(x).powi(2)).sum::<f64>() / 3.0;
             let side = &mut sums[usize::from(crate::composite::is_complex(*a))];
-            side[0] += slope2 * all;
-            side[1] += slope2 * target;
+            side[0] += s2 * all;
+            side[1] += s2 * target;
         }
     }
     let grows = b[0] / b[1];

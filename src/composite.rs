@@ -15,6 +15,7 @@ use crate::exrio::{ExrImage, check_finite_rgb};
 use crate::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
 use crate::fxaa::fxaa;
 use crate::layout::Source;
+use crate::scene::SCENE_HASH_ATTR;
 use rayon::prelude::*;
 use std::borrow::Cow;
 use std::path::Path;
@@ -304,16 +305,32 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
             Some(_) => {}
         }
     }
-    let (omc_scene, mcmc_scene) = (
+    let (omc_scene, omc_hash) = (
         omc.source.text_attr("mixmc.scene"),
-        mcmc.image.text_attr("mixmc.scene"),
+        omc.source.text_attr(SCENE_HASH_ATTR),
     );
-    if let (Some(a), Some(b)) = (&omc_scene, &mcmc_scene)
-        && a != b
-    {
+    let (mcmc_scene, mcmc_hash) = (
+        mcmc.image.text_attr("mixmc.scene"),
+        mcmc.image.text_attr(SCENE_HASH_ATTR),
+    );
+    // By content where both carry it (one scene may lie at two paths, an edited one at one);
+    // by path for renders made before the hash.
+    let differ = match (&omc_hash, &mcmc_hash) {
+        (Some(a), Some(b)) => a != b,
+        _ => matches!((&omc_scene, &mcmc_scene), (Some(a), Some(b)) if a != b),
+    };
+    if differ {
+        let name = |s: &Option<String>, h: &Option<String>| {
+            let s = s.as_deref().unwrap_or("(unnamed)");
+            h.as_ref().map_or(s.to_string(), |h| format!("{s} ({h})"))
+        };
         warn(
             mcmc.path,
-            format!("warning: rendered from scene {b}, but the OMC image from {a}"),
+            format!(
+                "warning: rendered from scene {}, but the OMC image from {}",
+                name(&mcmc_scene, &mcmc_hash),
+                name(&omc_scene, &omc_hash)
+            ),
         );
     }
 
@@ -341,6 +358,9 @@ pub fn composite(omc: OmcInput, mask: Input, mcmc: Input, opts: Options) -> Resu
     image.set_text("mixmc.tool", "mixmc-composite");
     if let Some(scene) = omc_scene {
         image.set_text("mixmc.scene", scene);
+    }
+    if let Some(hash) = omc_hash {
+        image.set_text(SCENE_HASH_ATTR, hash);
     }
     image.set_text("mixmc.omc", omc.path.display().to_string());
     image.set_text(MASK_PATH_ATTR, mask.path.display().to_string());

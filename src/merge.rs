@@ -16,6 +16,7 @@ use crate::cli::COMMAND_ATTR;
 use crate::error::{Error, Result};
 use crate::exrio::{Attr, ExrImage};
 use crate::raycount::{self, RayCounts};
+use crate::scene::SCENE_HASH_ATTR;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -197,10 +198,30 @@ impl Merger {
                 ));
             }
         }
+        let hashes = (
+            first.text_attr(SCENE_HASH_ATTR),
+            img.text_attr(SCENE_HASH_ATTR),
+        );
+        if let (Some(a), Some(b)) = &hashes
+            && a != b
+        {
+            return fail(format!(
+                "rendered from another scene than {} ({SCENE_HASH_ATTR} {b}, not {a}): the \
+                 scene changed between the renders; not passes of one render",
+                first_path.display()
+            ));
+        }
+        let same_scene = |a, b| match &hashes {
+            (Some(_), Some(_)) => true,
+            _ => same_file(a, b),
+        };
         for key in first.attributes.keys().chain(img.attributes.keys()) {
-            if key.starts_with("mixmc.") && !PER_PASS_ATTRS.contains(&key.as_str()) {
+            if key.starts_with("mixmc.")
+                && !PER_PASS_ATTRS.contains(&key.as_str())
+                && key != SCENE_HASH_ATTR
+            {
                 let (a, b) = (first.attributes.get(key), img.attributes.get(key));
-                if a != b && !(key == "mixmc.scene" && same_file(a, b)) {
+                if a != b && !(key == "mixmc.scene" && same_scene(a, b)) {
                     let show = |v: Option<&Attr>| match v {
                         Some(Attr::Text(t)) => format!("`{t}`"),
                         Some(Attr::Float(f)) => f.to_string(),
@@ -390,10 +411,11 @@ fn set_combined(out: &mut ExrImage, key: &str, headers: &[&ExrImage], weights: &
     }
 }
 
-/// Two renders name their scene as they were given it, relative to their own working
-/// directory or absolute; the same scene file under two spellings is still one scene. Resolved
-/// against this process's working directory, which is where relative paths are looked up when
-/// merging references from the repository root.
+/// Where a file carries no scene hash (renders made before [`SCENE_HASH_ATTR`]), its scene is
+/// known only by its path. Two renders name their scene as they were given it, relative to
+/// their own working directory or absolute; the same scene file under two spellings is still one
+/// scene. Resolved against this process's working directory, which is where relative paths are
+/// looked up when merging references from the repository root.
 fn same_file(a: Option<&Attr>, b: Option<&Attr>) -> bool {
     match (a, b) {
         (Some(Attr::Text(a)), Some(Attr::Text(b))) => {

@@ -45,7 +45,7 @@ pub fn aov_image(scene: &Scene, s: &OmcSettings, r: &Rendered, gbuf: &GBuffer) -
     let mut img = omc_image(&r.film, gbuf, r.passes);
     img.set_text("mixmc.tool", "mixmc-omc");
     img.set_text("mixmc.method", s.method.name());
-    img.set_text("mixmc.scene", scene.path.display().to_string());
+    scene.tag(&mut img);
     img.set_float("mixmc.seed", s.seed as f64);
     img.set_float("mixmc.spp", r.passes as f64);
     img.set_float("mixmc.seconds", r.seconds);

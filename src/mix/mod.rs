@@ -879,7 +879,7 @@ fn set_header(
     partial: bool,
 ) {
     image.set_text("mixmc.tool", "mixmc-mix");
-    image.set_text("mixmc.scene", scene.path.display().to_string());
+    scene.tag(image);
     image.set_text("mixmc.method", method.name());
     image.set_text("mixmc.omc", s.omc.name());
     image.set_float("mixmc.seed", s.seed as f64);

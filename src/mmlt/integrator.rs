@@ -1044,7 +1044,7 @@ pub fn mcmc_image(
     let mut img = ExrImage::new(r.width, r.height);
     img.add_rgb("", ["R", "G", "B"], &r.rgb);
     img.set_text("mixmc.tool", "mixmc-mmlt");
-    img.set_text("mixmc.scene", scene.path.display().to_string());
+    scene.tag(&mut img);
     img.set_float("mixmc.seed", s.seed as f64);
     img.set_float("mixmc.mutations", r.mutations as f64);
     img.set_float("mixmc.mutations_per_pixel", r.mutations_per_pixel as f64);

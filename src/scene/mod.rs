@@ -12,6 +12,8 @@ use crate::accel::{Bvh, Ray};
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::exrio::ExrImage;
+use crate::fingerprint::fnv1a64;
 use crate::lights::{EmitterTri, LightSample, Lights};
 use crate::math::{Rgb, Vec2, Vec3};
 use desc::{MaterialDesc, ObjectDesc, SceneDesc, TransformDesc};
@@ -53,6 +55,40 @@ pub struct Scene {
     pub eps: f32,
     /// What the scene builds despite (dropped triangles, no lights), for the tools to print.
     pub warnings: Vec<String>,
+    /// [`content_hash`] of what is rendered: ties a render to its scene wherever the file lies.
+    pub hash: String,
+}
+
+/// Header attribute holding the content hash of the scene an image was rendered from.
+pub const SCENE_HASH_ATTR: &str = "mixmc.scene_hash";
+
+/// `fnv1a64:` and 16 hex digits over what the renderer sees: the camera and film, the scene's
+/// depth, each material's scattering and emission (not its name) and every triangle's vertices
+/// and material, in order. Materials and camera enter as their `Debug` text, which prints every
+/// float so that it reads back to the same bits: any change that can change an image changes
+/// the hash, and a file moved, renamed or re-indented does not.
+fn content_hash(
+    camera: &Camera,
+    max_depth: u32,
+    materials: &[Material],
+    tri_verts: &[[Vec3; 3]],
+    tri_info: &[TriInfo],
+) -> String {
+    let mut text = format!("{camera:?}|{max_depth}|");
+    for m in materials {
+        text.push_str(&format!("{:?}|{:?}|", m.bsdf, m.emission));
+    }
+    let triangles = tri_verts.iter().zip(tri_info).flat_map(|(v, info)| {
+        let coords = v.iter().flat_map(|p| p.to_array());
+        coords
+            .map(f32::to_bits)
+            .chain([info.material])
+            .flat_map(u32::to_le_bytes)
+    });
+    format!(
+        "fnv1a64:{:016x}",
+        fnv1a64(text.into_bytes().into_iter().chain(triangles))
+    )
 }
 
 /// A ray's nearest surface.
@@ -236,6 +272,7 @@ impl Scene {
         } else {
             lo.abs().max(hi.abs()).max_element().max(1e-3)
         };
+        let hash = content_hash(&camera, max_depth, &materials, &tri_verts, &tri_info);
         Scene {
             name,
             path,
@@ -250,7 +287,16 @@ impl Scene {
             bounds: (lo, hi),
             eps: 1e-4 * extent,
             warnings,
+            hash,
         }
+    }
+
+    /// Name the scene in a render's header: its path, for people, and its content hash, which
+    /// `mixmc-merge` and `mixmc-composite` compare. Passes rendered on several machines name
+    /// the same scene by different paths, and a scene edited between two renders keeps its path.
+    pub fn tag(&self, img: &mut ExrImage) {
+        img.set_text("mixmc.scene", self.path.display().to_string());
+        img.set_text(SCENE_HASH_ATTR, &self.hash);
     }
 
     /// Print the scene's warnings as `TOOL: FILE: warning: …` on stderr.
@@ -532,6 +578,34 @@ mod tests {
         assert_eq!(d.max_depth, 8);
         let s = Scene::build(&d, Path::new("x.json"), MINIMAL, None).unwrap();
         assert!(s.tri_verts.len() > 1000 && s.lights.is_empty());
+    }
+
+    /// The hash sees what is rendered, not the file: the same text at another path (another
+    /// machine's copy) or with another layout hashes the same; a changed albedo, emission, film,
+    /// depth or vertex does not.
+    #[test]
+    fn the_content_hash_follows_the_scene_not_its_file() {
+        let hash = |text: &str, path: &str| Scene::from_text(text, Path::new(path)).unwrap().hash;
+        let h = hash(MINIMAL, "x.json");
+        assert!(h.starts_with("fnv1a64:") && h.len() == 8 + 16, "{h}");
+        assert_eq!(hash(MINIMAL, "/elsewhere/y.json"), h);
+        assert_eq!(hash(&MINIMAL.replace("\n", " "), "x.json"), h);
+        assert_eq!(hash(&MINIMAL.replace("white", "grey"), "x.json"), h);
+        for (from, to) in [
+            ("0.5, 0.5, 0.5]}", "0.5, 0.5, 0.51]}"),
+            (
+                "0.5, 0.5, 0.5]}",
+                "0.5, 0.5, 0.5], \"emission\": [1, 1, 1]}",
+            ),
+            ("\"width\": 8", "\"width\": 9"),
+            ("\"fov_y\": 40", "\"fov_y\": 40, \"up\": [0, 1, 0.001]"),
+            ("\"radius\": 1,", "\"radius\": 1.001,"),
+            ("\"film\"", "\"max_depth\": 9, \"film\""),
+        ] {
+            let changed = MINIMAL.replace(from, to);
+            assert_ne!(changed, MINIMAL);
+            assert_ne!(hash(&changed, "x.json"), h, "{to}");
+        }
     }
 
     #[test]

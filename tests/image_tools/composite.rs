@@ -5,6 +5,7 @@ use crate::util::*;
 use mixmc::composite::mask_borders;
 use mixmc::exrio::ExrImage;
 use mixmc::fingerprint::{MASK_HASH_ATTR, MASK_PATH_ATTR, alpha_hash};
+use mixmc::scene::SCENE_HASH_ATTR;
 use std::path::{Path, PathBuf};
 
 const EPS: f32 = 0.1;
@@ -324,6 +325,43 @@ fn mask_hash_mismatch_warns() {
         err.contains("warning") && err.contains("names no mask"),
         "{err}"
     );
+}
+
+/// The OMC and MCMC images name their scene by path and content hash: the content decides where
+/// both carry it (one scene copied to two machines, or one file edited between the renders), the
+/// path where not (images made before the hash).
+#[test]
+fn scenes_are_compared_by_content_where_both_images_carry_it() {
+    let dir = temp_dir("scene-hash");
+    let (w, h) = (8, 8);
+    let n = w * h;
+    let [d, i, m] = random_light(n, 12, [1.0, 1.0, 1.0]);
+    let alpha: Vec<f32> = (0..n).map(|p| if p % 7 == 0 { 1.0 } else { EPS }).collect();
+    let inputs = write_inputs(&dir, (w, h), &d, &i, &alpha, &m, Some(&alpha));
+    let retag = |path: &Path, scene: &str, hash: Option<&str>| {
+        let mut img = ExrImage::read(path).unwrap();
+        img.set_text("mixmc.scene", scene);
+        match hash {
+            Some(hash) => img.set_text(SCENE_HASH_ATTR, hash),
+            None => drop(img.attributes.remove(SCENE_HASH_ATTR)),
+        }
+        img.write(path, false).unwrap();
+    };
+    let (one, two) = ("fnv1a64:0123456789abcdef", "fnv1a64:fedcba9876543210");
+    let warned = |omc: (&str, Option<&str>), mcmc: (&str, Option<&str>)| {
+        retag(&inputs.omc, omc.0, omc.1);
+        retag(&inputs.mcmc, mcmc.0, mcmc.1);
+        let (out, err) = composite(&dir, &inputs, &["--no-fxaa"]);
+        assert_eq!(out.text_attr(SCENE_HASH_ATTR).as_deref(), omc.1);
+        err.contains("warning: rendered from scene")
+    };
+    assert!(!warned(
+        ("a/s.json", Some(one)),
+        ("/node7/s.json", Some(one))
+    ));
+    assert!(warned(("s.json", Some(one)), ("s.json", Some(two))));
+    assert!(warned(("a/s.json", None), ("/node7/s.json", None)));
+    assert!(!warned(("s.json", Some(one)), ("s.json", None)));
 }
 
 #[test]

@@ -5,6 +5,7 @@
 use crate::util::*;
 use mixmc::exrio::ExrImage;
 use mixmc::raycount::RayCounts;
+use mixmc::scene::SCENE_HASH_ATTR;
 use std::path::{Path, PathBuf};
 
 fn render(dir: &Path, name: &str, seed: u32, spp: u32) -> PathBuf {
@@ -127,17 +128,55 @@ fn passes_of_different_renders_are_refused() {
         );
     };
     refused(&variant("same-seed.exr", 1.0, &|_| {}), &["same seed"]);
+    // Scenes are told apart by their content hash: another scene is refused, and so is the
+    // same file edited between the renders; the same content at another path (another
+    // machine's copy) is one scene, and the header keeps the first file's path.
+    let hash = base
+        .text_attr(SCENE_HASH_ATTR)
+        .expect("renders carry the scene's hash");
+    let other = mixmc::scene::Scene::load(Path::new(&repo("fixtures/scenes/cornell-box.json")))
+        .unwrap()
+        .hash;
+    assert_ne!(other, hash);
     refused(
         &variant("scene.exr", 2.0, &|i| {
-            i.set_text("mixmc.scene", "fixtures/scenes/cornell-box.json")
+            i.set_text("mixmc.scene", "fixtures/scenes/cornell-box.json");
+            i.set_text(SCENE_HASH_ATTR, &other);
         }),
+        &["another scene", "changed between the renders"],
+    );
+    refused(
+        &variant("edited.exr", 2.0, &|i| i.set_text(SCENE_HASH_ATTR, &other)),
+        &["another scene", &other],
+    );
+    let moved = variant("moved.exr", 2.0, &|i| {
+        i.set_text("mixmc.scene", "/scratch/node7/caustic.json")
+    });
+    run_code(
+        MERGE,
+        &[path_str(&a), path_str(&moved), "-o", path_str(&out)],
+        0,
+    );
+    let merged = ExrImage::read(&out).unwrap();
+    assert_eq!(
+        merged.text_attr("mixmc.scene"),
+        base.text_attr("mixmc.scene")
+    );
+    assert_eq!(merged.text_attr(SCENE_HASH_ATTR), Some(hash));
+    std::fs::remove_file(&out).unwrap();
+    // Files from before the hash name their scene by path alone: another path is another
+    // scene, unless it resolves to the same file (the test runs from the repository root).
+    let unhashed = |name: &str, scene: &str| {
+        variant(name, 2.0, &|i| {
+            i.attributes.remove(SCENE_HASH_ATTR);
+            i.set_text("mixmc.scene", scene);
+        })
+    };
+    refused(
+        &unhashed("old-scene.exr", "fixtures/scenes/cornell-box.json"),
         &["mixmc.scene"],
     );
-    // The same scene file under another spelling is the same scene (the test runs from the
-    // repository root, where the relative path resolves); the header keeps the first's.
-    let relative = variant("relative.exr", 2.0, &|i| {
-        i.set_text("mixmc.scene", "fixtures/scenes/caustic.json")
-    });
+    let relative = unhashed("relative.exr", "fixtures/scenes/caustic.json");
     run_code(
         MERGE,
         &[path_str(&a), path_str(&relative), "-o", path_str(&out)],

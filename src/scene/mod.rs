@@ -55,7 +55,8 @@ pub struct Scene {
     pub eps: f32,
     /// What the scene builds despite (dropped triangles, no lights), for the tools to print.
     pub warnings: Vec<String>,
-    /// [`content_hash`] of what is rendered: ties a render to its scene wherever the file lies.
+    /// The content hash of what is rendered (`content_hash`): ties a render to its scene
+    /// wherever the file lies.
     pub hash: String,
 }
 

@@ -65,9 +65,11 @@ pub const SCENE_HASH_ATTR: &str = "mixmc.scene_hash";
 
 /// `fnv1a64:` and 16 hex digits over what the renderer sees: the camera and film, the scene's
 /// depth, each material's scattering and emission (not its name) and every triangle's vertices
-/// and material, in order. Materials and camera enter as their `Debug` text, which prints every
-/// float so that it reads back to the same bits: any change that can change an image changes
-/// the hash, and a file moved, renamed or re-indented does not.
+/// and material's index, in order. Materials and camera enter as their `Debug` text, which
+/// prints every float so that it reads back to the same bits: any change that can change an
+/// image changes the hash, and a file moved or re-indented does not. Materials are in the order
+/// of their names, so a rename that reorders them changes it too: a merge refused that could
+/// have been made, never one made that should not.
 fn content_hash(
     camera: &Camera,
     max_depth: u32,

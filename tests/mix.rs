@@ -302,10 +302,11 @@ fn the_measured_job_switches_at_its_own_fraction_and_the_papers_split_at_the_pap
     }
 }
 
-/// Where the pilot gave MMLT more time, the checkpoint after OMC's share decided the rest, with
-/// OMC's render further on and MMLT's where its pilot left it; where it gave none there was
-/// none. Returns whether there was one.
-fn checked_again_where_the_pilot_mixed(fin: &ExrImage) -> bool {
+/// After the pilot a checkpoint decided the rest again, with OMC's render further on and
+/// MMLT's where its pilot left it: after OMC's share where the pilot gave MMLT more time, after
+/// part of what was left where it gave none (`mix::RECHECK`). Returns whether the pilot gave
+/// MMLT more time.
+fn checked_again_after_the_pilot(fin: &ExrImage) -> bool {
     let f = |k: &str| fin.float_attr(k).unwrap_or(f64::NAN);
     let checkpoint = fin.text_attr("mixmc.checkpoint.decision");
     // Below the switch the pilot or the checkpoint may have found MCMC alone the better of the
@@ -321,19 +322,14 @@ fn checked_again_where_the_pilot_mixed(fin: &ExrImage) -> bool {
         assert!(alone < others, "MCMC alone {alone} against {others}");
         return false;
     }
-    // Where the pilot saw no gain in more of MMLT, OMC rendered the rest and MMLT's pilot was
-    // kept, weighed in by the composite: nothing was left for a checkpoint.
+    // Where the pilot saw no gain in more of MMLT, OMC rendered on and MMLT's pilot was kept.
     let more = f("mixmc.pilot_mcmc_seconds");
     if f("mixmc.predicted.mix") >= f("mixmc.predicted.omc_alone") {
         assert_eq!(more, 0.0);
     }
-    if more == 0.0 {
-        assert_eq!(checkpoint, None);
-        assert_eq!(fin.text_attr("mixmc.decision").as_deref(), Some("mix"));
-        return false;
-    }
     // The pace check, where there was one, decided last.
     let paced = fin.text_attr("mixmc.pace_check.decision");
+    assert!(checkpoint.is_some(), "no checkpoint after the pilot");
     assert_eq!(fin.text_attr("mixmc.decision"), paced.or(checkpoint));
     let v = f("mixmc.checkpoint.predicted.mix");
     assert!(v.is_finite() && v >= 0.0, "checkpoint's mix {v}");
@@ -348,7 +344,7 @@ fn checked_again_where_the_pilot_mixed(fin: &ExrImage) -> bool {
     // pace, over MMLT's own render.
     assert_eq!(f("mixmc.rate.mcmc_exponent"), 1.0);
     assert_eq!(f("mixmc.checkpoint.rate.mcmc_exponent"), 1.0);
-    true
+    more > 0.0
 }
 
 /// Where the checkpoint mixed and MMLT's share was long enough, the pace check part way into
@@ -403,7 +399,7 @@ fn a_mix_is_decided_again_once_omc_has_rendered_its_share() {
         (800.0, "3"),
     ];
     let mixed = water_jobs("mix-checkpoint", &runs, |fin| {
-        let mixed = checked_again_where_the_pilot_mixed(fin);
+        let mixed = checked_again_after_the_pilot(fin);
         paced_again_where_mmlt_went_on(fin);
         mixed
     });
@@ -427,7 +423,8 @@ fn mmlts_pace_is_checked_part_way_into_its_share() {
         (800.0, "1"),
     ];
     let paced = water_jobs("mix-pace", &runs, |fin| {
-        checked_again_where_the_pilot_mixed(fin) && paced_again_where_mmlt_went_on(fin)
+        checked_again_after_the_pilot(fin);
+        paced_again_where_mmlt_went_on(fin)
     });
     assert!(
         paced,
@@ -464,7 +461,7 @@ fn recomposed(fin: &ExrImage, keep: &Path) -> ExrImage {
 }
 
 #[test]
-fn where_the_pilot_gives_mmlt_no_more_time_omc_renders_the_rest_and_the_pilot_is_weighed_in() {
+fn where_the_pilot_gives_mmlt_no_more_time_omc_renders_on_and_the_pilot_is_weighed_in() {
     let _alone = alone();
     // The room's tiny twin at 4 s with the paper's mask (93% of the pixels marked, where IBPT
     // beats MMLT): its pilot saw no gain in more of MMLT on seeds 1–6, also with another job
@@ -481,13 +478,14 @@ fn where_the_pilot_gives_mmlt_no_more_time_omc_renders_the_rest_and_the_pilot_is
         args.extend(FAST);
         run_ok("mixmc-mix", &args);
         let fin = read(&out);
-        if checked_again_where_the_pilot_mixed(&fin)
+        if checked_again_after_the_pilot(&fin)
             || fin.float_attr("mixmc.pilot_mcmc_seconds") != Some(0.0)
         {
             return false;
         }
-        // The image is the composite of OMC's render and MMLT's pilot, not OMC's beauty: the
-        // pilot's render is weighed in wherever OMC's weight is below 1.
+        // The image is the composite of OMC's render and MMLT's (its pilot, and whatever the
+        // checkpoint gave it), not OMC's beauty: MMLT's render is weighed in wherever OMC's
+        // weight is below 1.
         assert_eq!(differ(&rgb(&fin), &rgb(&recomposed(&fin, &keep))), 0);
         let omc = read(&keep.join("omc.exr"));
         let weights = ["mixmc.omc_weight", "mixmc.omc_weight_outside"];
@@ -574,7 +572,7 @@ fn the_measured_job_says_what_it_chose_and_its_image_is_what_the_kept_files_give
                 let v = fin.float_attr(k).unwrap_or(f64::NAN);
                 assert!(v.is_finite() && v >= 0.0, "{k} = {v}");
             }
-            checked_again_where_the_pilot_mixed(&fin);
+            checked_again_after_the_pilot(&fin);
             paced_again_where_mmlt_went_on(&fin);
         } else {
             let pilot = fin.float_attr("mixmc.mcmc_pilot_share").unwrap();

@@ -317,7 +317,8 @@ pub(super) fn mcmc<'a>(
 }
 
 /// The decision, with MMLT's render so far kept where it gives MMLT no more time: OMC renders
-/// the rest, and the composite weighs MMLT's render in by its error as measured at the end
+/// on (until the checkpoint decides the rest again, `mix::RECHECK`), and the composite weighs
+/// MMLT's render in by its error as measured at the end
 /// (`Halved::weights`), which leans to OMC where MMLT is the worse of the two. `decide` asks
 /// whether more of MMLT pays; its "OMC alone" threw away a render already paid for, which the
 /// weights still draw on: on cornell-torus at 120 s the pilot's 6% of the budget took 8–10%

@@ -537,22 +537,21 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // 4. The rest of the budget, as decided: OMC first, MMLT last, so that it takes up what is
     // left.
     let omc_label = format!("mix 2/3: {}", method.name());
-    let omc_share = |omc: &mut Halved, choice: Choice| {
-        let seconds = choice.omc_seconds(job.left());
+    let omc_for = |omc: &mut Halved, seconds: f64| {
         if seconds > 0.0 {
             let budget = Budget::Seconds(seconds);
             omc.render(&job, method, budget, u64::MAX, &omc_label);
         }
     };
-    // Where the pilot gave MMLT no more time, OMC renders part of the rest first, and the
+    let omc_share = |omc: &mut Halved, choice: Choice| omc_for(omc, choice.omc_seconds(job.left()));
+    // Where the pilot gave MMLT no more time, OMC renders only part of the rest before the
     // checkpoint below decides the rest again (`RECHECK`).
-    let recheck = mmlt.is_some() && choice == Choice::Mix { mcmc_seconds: 0.0 };
     if !omc.even.partial {
-        if recheck {
-            let budget = Budget::Seconds(RECHECK * job.left());
-            omc.render(&job, method, budget, u64::MAX, &omc_label);
-        } else {
-            omc_share(&mut omc, choice);
+        match choice {
+            Choice::Mix { mcmc_seconds } if mcmc_seconds == 0.0 && mmlt.is_some() => {
+                omc_for(&mut omc, RECHECK * job.left())
+            }
+            _ => omc_share(&mut omc, choice),
         }
     }
     // MMLT's b from the OMC passes after the snapshot, before MMLT goes on: with Kelemen's MIS
@@ -584,8 +583,7 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // (`pilot::checkpoint`), or `RECHECK` of what was left where the pilot gave MMLT no more
     // time; OMC takes its part of it first. MMLT has a run here only after its pilot, which
     // only the measured job makes.
-    if let (Some(run), Choice::Mix { mcmc_seconds }) = (&mmlt, choice)
-        && (mcmc_seconds > 0.0 || recheck)
+    if let (Some(run), Choice::Mix { .. }) = (&mmlt, choice)
         && !omc.even.partial
     {
         let (d, rates) = pilot::checkpoint(&job, &omc, run, alpha);

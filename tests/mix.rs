@@ -457,6 +457,13 @@ fn recomposed(fin: &ExrImage, keep: &Path) -> ExrImage {
             "{k}: {a} in the job's header, {b} from its weights"
         );
     }
+    // MMLT's kept render is the one brought to OMC's totals, and says by how much.
+    let mcmc = read(&c);
+    for k in ["mixmc.mcmc_scale", "mixmc.mcmc_scale_outside"] {
+        let scale = fin.float_attr(k).unwrap();
+        assert!(scale > 0.0, "{k}: {scale}");
+        assert_eq!(mcmc.float_attr(k), Some(scale), "{k}");
+    }
     img
 }
 

@@ -181,6 +181,12 @@ fn main() -> ExitCode {
                 );
             }
         }
+        let [outside, inside] = r.mcmc_scale;
+        if inside > 0.0 {
+            weight += &format!(
+                ", MMLT's render ×{inside:.2} in the mask and ×{outside:.2} outside by OMC's totals"
+            );
+        }
         // The share of the time MMLT's pilot would take is set wherever the job weighed it.
         let unpiloted = if m.reasons.decision.is_none() && m.reasons.pilot_share > 0.0 {
             format!(

@@ -187,6 +187,51 @@ pub fn total_error(m: &Halves, reference: &Halves, level: &[[f32; 3]], select: &
     sum.max(0.0) / 3.0 / mm.len().max(1) as f64
 }
 
+/// Per pixel and channel, the factor that brings `m`'s render, region by region (`regions`:
+/// each pixel's label), to the total an independent unbiased render (`reference`) gives there.
+/// MMLT's chains share one normalisation b over the whole image, so light they have not found
+/// yet in one region is light they spend in the others: on `lamp` at 30 s the job's MMLT
+/// rendered the mirror at 0.55–0.70 of BPT's total there and the rest of the image 14–16%
+/// bright, and its halves, which share that start, could not show it (docs/main-job.md,
+/// thirty-eighth round). A region's total is a sum over many pixels, so the OMC render knows it
+/// far better than any of its pixels, spikes and all.
+///
+/// The correction is shrunk by the noise of both totals (from each render's halves): with the
+/// difference of the totals d and their variances' sum σ², the total moves by d·max(0, 1 −
+/// σ²/d²), so a region whose totals agree within their noise keeps `m`'s render as it is.
+pub fn regional_scale(m: &Halves, reference: &Halves, regions: &[u32]) -> Vec<[f32; 3]> {
+    let n = regions.iter().max().map_or(0, |&r| r as usize + 1);
+    // Per region and channel: m's total, the reference's, and their variances.
+    let mut totals = vec![[[0.0f64; 3]; 4]; n];
+    let (mm, mr, vm, vr) = (
+        m.whole(),
+        reference.whole(),
+        m.variance(),
+        reference.variance(),
+    );
+    for (p, &r) in regions.iter().enumerate() {
+        let t = &mut totals[r as usize];
+        for c in 0..3 {
+            let v = [mm[p][c] as f64, mr[p][c] as f64, vm[p][c], vr[p][c]];
+            if v.iter().all(|x| x.is_finite()) {
+                (0..4).for_each(|k| t[k][c] += v[k]);
+            }
+        }
+    }
+    let factors: Vec<[f32; 3]> = totals
+        .iter()
+        .map(|[own, other, var_own, var_other]| {
+            std::array::from_fn(|c| {
+                let d = other[c] - own[c];
+                let kept = (1.0 - (var_own[c] + var_other[c]) / (d * d)).max(0.0);
+                let f = (own[c] + kept * d) / own[c];
+                if f.is_finite() { f as f32 } else { 1.0 }
+            })
+        })
+        .collect();
+    regions.iter().map(|&r| factors[r as usize]).collect()
+}
+
 /// Per block of `block`² pixels (only the `select`ed ones, all without) and channel: the
 /// difference of the two renders' block means (`m` − `reference`), and its square beyond what
 /// both renders' noise explains (negative where it explains more), carried into LDR at the
@@ -728,6 +773,56 @@ mod tests {
         let right: Vec<bool> = left.iter().map(|l| !l).collect();
         let elsewhere = unseen_error(&half_dark, &reference, &level, (w, h), &right);
         assert!(elsewhere < 0.02 * want, "{elsewhere}");
+    }
+
+    /// Region by region: a render too dark by a third in one region (0.2 against 0.3) is
+    /// brought to the reference's total there, within the noise of the totals; a region that
+    /// agrees within the noise keeps the render as it is; a region the render left black
+    /// cannot be scaled and keeps it too.
+    #[test]
+    fn a_regions_total_comes_from_the_reference_beyond_the_noise() {
+        let mut noisy = noisy_images(17);
+        let (ra, rb) = (noisy(0.3), noisy(0.3));
+        let reference = Halves::equal(&ra, &rb);
+        let n = SIDE * SIDE;
+        // Region 0: the left half, too dark; 1: the right half but its last row, right; 2: the
+        // last row's right half, black.
+        let region = |p: usize| match (p % SIDE < SIDE / 2, p >= n - SIDE) {
+            (true, _) => 0u32,
+            (false, false) => 1,
+            (false, true) => 2,
+        };
+        let regions: Vec<u32> = (0..n).map(region).collect();
+        let (da, db, ma, mb) = (noisy(0.2), noisy(0.2), noisy(0.3), noisy(0.3));
+        let pick = |dark: &[[f32; 3]], right: &[[f32; 3]]| -> Vec<[f32; 3]> {
+            (0..n)
+                .map(|p| match regions[p] {
+                    0 => dark[p],
+                    1 => right[p],
+                    _ => [0.0; 3],
+                })
+                .collect()
+        };
+        let (ha, hb) = (pick(&da, &ma), pick(&db, &mb));
+        let f = regional_scale(&Halves::equal(&ha, &hb), &reference, &regions);
+        for p in [0, SIDE / 2, n - 1] {
+            let want: f32 = [1.5, 1.0, 1.0][regions[p] as usize];
+            for c in 0..3 {
+                assert!(
+                    (f[p][c] - want).abs() < 0.01,
+                    "pixel {p}: {:?} vs {want}",
+                    f[p]
+                );
+            }
+        }
+        // Noise alone moves nothing: every factor of the right region is exactly 1.
+        assert!(
+            (0..n)
+                .filter(|&p| regions[p] == 1)
+                .all(|p| f[p] == [1.0; 3])
+        );
+        // Each region shares one factor.
+        assert!((0..n).all(|p| f[p] == f[[0, SIDE / 2, n - 1][regions[p] as usize]]));
     }
 
     /// An error held by a few pixels of each block, the block's mean unchanged (two pixels of

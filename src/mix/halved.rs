@@ -4,13 +4,14 @@
 
 use super::Job;
 use super::estimate::{
-    Halves, MixHalf, add, film_means, pixel_weights, total_error, unseen_error, weight_of_omc,
+    Halves, MixHalf, add, film_means, pixel_weights, regional_scale, total_error, unseen_error,
+    weight_of_omc,
 };
 use super::plan::Quadratic;
 use crate::film::{DepthTally, Film};
 use crate::integrators::Method;
 use crate::integrators::bidir::{Strategies, render_views};
-use crate::math::Rgb;
+use crate::math::{Rgb, luminance};
 use crate::mmlt::MmltRun;
 use crate::render::{Budget, Rendered, continue_passes};
 
@@ -212,10 +213,7 @@ impl Halved {
         let inside = complex_pixels(alpha);
         let size = (self.odd.width, self.odd.height);
         let level = self.level();
-        let times_alpha = |i: &[[f32; 3]]| -> Vec<[f32; 3]> {
-            i.iter().zip(alpha).map(|(x, a)| x.map(|v| v * a)).collect()
-        };
-        let (sa, sb) = (times_alpha(&ia), times_alpha(&ib));
+        let [sa, sb] = [&ia, &ib].map(|i| times_alpha(i, alpha));
         let (omc, mcmc) = (self.as_halves(&sa, &sb), Halves::equal(&ma, &mb));
         let unseen = [false, true].map(|side| {
             let select: Vec<bool> = inside.iter().map(|&c| c == side).collect();
@@ -239,6 +237,37 @@ impl Halved {
     }
 
     /// The means of each half's beauty (D + I).
+    /// Per pixel, the factor that brings MMLT's render of α·I to this render's totals of the
+    /// same light, region by region: each of the mask's segments inside it, and all of the
+    /// image outside it as one (`estimate::regional_scale`); and, `[outside, inside]`, how much
+    /// that changes MMLT's total luminance there.
+    pub(super) fn regional_scale(
+        &self,
+        run: &MmltRun,
+        alpha: &[f32],
+        segments: &[u32],
+    ) -> (Vec<[f32; 3]>, [f64; 2]) {
+        let [(_, ia), (_, ib)] = self.half_means();
+        let [sa, sb] = [&ia, &ib].map(|i| times_alpha(i, alpha));
+        let [ma, mb] = run.halves();
+        let mcmc = Halves::equal(&ma, &mb);
+        let inside = complex_pixels(alpha);
+        let outside = segments.iter().max().map_or(0, |&s| s + 1);
+        let regions: Vec<u32> = (inside.iter().zip(segments))
+            .map(|(&inside, &s)| if inside { s } else { outside })
+            .collect();
+        let factors = regional_scale(&mcmc, &self.as_halves(&sa, &sb), &regions);
+        let mut sums = [[0.0f64; 2]; 2];
+        for ((m, f), &side) in mcmc.whole().iter().zip(&factors).zip(&inside) {
+            let y = luminance(Rgb::from(*m)) as f64;
+            let scaled = luminance(Rgb::from(std::array::from_fn(|c| m[c] * f[c]))) as f64;
+            let s = &mut sums[usize::from(side)];
+            (s[0], s[1]) = (s[0] + y, s[1] + scaled);
+        }
+        let change = sums.map(|[before, after]| if before > 0.0 { after / before } else { 1.0 });
+        (factors, change)
+    }
+
     pub(super) fn beauty_halves(&self) -> [Vec<[f32; 3]>; 2] {
         let [(da, ia), (db, ib)] = self.half_means();
         [add(&da, &ia), add(&db, &ib)]
@@ -268,6 +297,15 @@ pub(super) fn mean(v: &[f64]) -> f64 {
 }
 
 /// Which pixels the mask gives MMLT (`composite::is_complex`).
+/// Light times the mask's α, pixel by pixel: what MMLT's render estimates.
+fn times_alpha(light: &[[f32; 3]], alpha: &[f32]) -> Vec<[f32; 3]> {
+    light
+        .iter()
+        .zip(alpha)
+        .map(|(x, a)| x.map(|v| v * a))
+        .collect()
+}
+
 fn complex_pixels(alpha: &[f32]) -> Vec<bool> {
     alpha
         .iter()

@@ -430,12 +430,14 @@ impl<'a> Job<'a> {
         let snapshot = source.into_image();
         let m = build(input, &params);
         let (switched, complex_fraction, alpha) = (m.switched, m.complex_fraction, m.alpha.clone());
+        let segments = m.segments.labels.clone();
         let scene = Some(self.scene.path.display().to_string());
         let image = mask_image(m, &params, &snapshot_name, scene);
         Ok(Masked {
             snapshot,
             image,
             mask: Mask::from_alpha(&dir.join(KEEP_NAMES[2]), self.w, self.h, alpha),
+            segments,
             switched,
             complex_fraction,
             seconds: start.elapsed().as_secs_f64(),
@@ -451,6 +453,8 @@ struct Masked {
     image: ExrImage,
     /// Its α, for MMLT and the composite.
     mask: Mask,
+    /// Its G-buffer segments' labels, the regions whose totals MMLT's render is brought to.
+    segments: Vec<u32>,
     switched: bool,
     complex_fraction: f64,
     seconds: f64,
@@ -636,10 +640,14 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
     // measured at the end: one weight outside the mask, each pixel's own inside it
     // (`estimate::weight_of_omc`, `estimate::pixel_weights`); the fixed splits keep eq. (2).
     let mut weights = None;
-    if let (Some(run), Choice::Mix { .. }) = (&mmlt, choice)
+    if let (Some(run), Choice::Mix { .. }) = (&mut mmlt, choice)
         && measured
         && !partial
     {
+        // First MMLT's render brought to OMC's totals region by region (`estimate::regional_scale`).
+        let (factors, change) = omc.regional_scale(run, alpha, &masked.segments);
+        run.rescale(factors);
+        reasons.mcmc_scale = change;
         let (map, [unseen_out, unseen_in]) = omc.weights(run, alpha);
         let [mean_out, mean_in] = OmcWeights::Pixels(&map).means(alpha);
         (reasons.omc_weight, reasons.mcmc_unseen) = (mean_in, unseen_in);
@@ -654,7 +662,12 @@ pub fn mix(scene: &Scene, s: &MixSettings, dir: &Path) -> Result<Mixed> {
             let r = run.result();
             partial |= r.partial;
             let mask = target.alpha.map(|_| &masked.mask);
-            let img = mcmc_image(scene, mask, &mmlt_settings, &r);
+            let mut img = mcmc_image(scene, mask, &mmlt_settings, &r);
+            // Not MMLT's raw render where it was brought to OMC's totals: say so, and by how much.
+            if reasons.mcmc_scale[1] > 0.0 {
+                img.set_float("mixmc.mcmc_scale", reasons.mcmc_scale[1]);
+                img.set_float("mixmc.mcmc_scale_outside", reasons.mcmc_scale[0]);
+            }
             ((r.mutations > 0).then_some(img), r.seconds)
         }
         None => (None, 0.0),
@@ -812,6 +825,8 @@ fn set_reasons(image: &mut ExrImage, reasons: &Reasons) {
     image.set_float("mixmc.mcmc_unseen", reasons.mcmc_unseen);
     image.set_float("mixmc.omc_weight_outside", reasons.omc_weight_outside);
     image.set_float("mixmc.mcmc_unseen_outside", reasons.mcmc_unseen_outside);
+    image.set_float("mixmc.mcmc_scale", reasons.mcmc_scale[1]);
+    image.set_float("mixmc.mcmc_scale_outside", reasons.mcmc_scale[0]);
     image.set_float("mixmc.mask_error_share", reasons.mask_share);
     image.set_float("mixmc.mcmc_pilot_share", reasons.pilot_share);
     type Field = fn(&plan::Candidate) -> String;

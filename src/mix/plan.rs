@@ -61,6 +61,10 @@ pub struct Reasons {
     pub mcmc_unseen: f64,
     /// The same outside the mask.
     pub mcmc_unseen_outside: f64,
+    /// `[outside, inside]`: MMLT's total luminance there once its render was brought to OMC's
+    /// totals region by region, over what it was (`estimate::regional_scale`; 0 where the job
+    /// did not weigh the two renders).
+    pub mcmc_scale: [f64; 2],
     /// The share of OMC's error that is its indirect light inside the mask, as the snapshot
     /// stood (`worth_a_pilot`; 0 where the job did not measure it).
     pub mask_share: f64,

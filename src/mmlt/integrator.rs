@@ -453,6 +453,8 @@ pub struct MmltRun<'a> {
     chain_seconds: f64,
     rays: RayCounts,
     partial: bool,
+    /// Each pixel's factor on the images from here on ([`MmltRun::rescale`]).
+    scale: Option<Vec<[f32; 3]>>,
 }
 
 impl<'a> MmltRun<'a> {
@@ -522,6 +524,7 @@ impl<'a> MmltRun<'a> {
             chain_seconds: 0.0,
             rays: RayCounts::default(),
             partial: false,
+            scale: None,
         }
     }
 
@@ -691,9 +694,17 @@ impl<'a> MmltRun<'a> {
                     });
                     std::array::from_fn(|c| acc[c] + sum[c] * scale)
                 });
-                v.map(|x| x as f32)
+                let f = self.scale.as_ref().map_or([1.0; 3], |s| s[p]);
+                std::array::from_fn(|c| v[c] as f32 * f[c])
             })
             .collect()
+    }
+
+    /// Scale each pixel of the images (halves and result) by its factor from here on: the main
+    /// job brings its render, region by region, to an unbiased render's totals there
+    /// (`mix::estimate::regional_scale`). The chains' sums are left as they are.
+    pub fn rescale(&mut self, factors: Vec<[f32; 3]>) {
+        self.scale = Some(factors);
     }
 
     /// The two independent halves' images (with one group, the whole image twice).

@@ -24,8 +24,11 @@
 //!    b_d is known, and, a third of the way into a share long enough, a pace check that
 //!    measures MMLT's pace over its own render and decides the time left once more
 //!    (`pilot::pace_check`);
-//! 5. the weights of OMC's indirect light where both methods have rendered it: each pixel's own
-//!    inside the mask (`estimate::pixel_weights`), one outside it (`estimate::weight_of_omc`);
+//! 5. MMLT's render brought to OMC's totals of α·I region by region, each of the mask's
+//!    segments and all of the outside, beyond both totals' noise (`estimate::regional_scale`);
+//!    then the weights of OMC's indirect light where both methods have rendered it: each
+//!    pixel's own inside the mask (`estimate::pixel_weights`), one outside it
+//!    (`estimate::weight_of_omc`);
 //! 6. the composite: eq. (2) with those weights.
 //!
 //! Errors are estimated from independent halves of each render (`estimate`, `halved`), so no

@@ -191,8 +191,8 @@ pub fn total_error(m: &Halves, reference: &Halves, level: &[[f32; 3]], select: &
 /// each pixel's label), to the total an independent unbiased render (`reference`) gives there.
 /// MMLT's chains share one normalisation b over the whole image, so light they have not found
 /// yet in one region is light they spend in the others: on `lamp` at 30 s the job's MMLT
-/// rendered the mirror at 0.55–0.70 of BPT's total there and the rest of the image 14–16%
-/// bright, and its halves, which share that start, could not show it (docs/main-job.md,
+/// rendered the mirror at a half to two thirds of BPT's total there and the rest of the image
+/// 14–16% bright, and its halves, which share that start, could not show it (docs/main-job.md,
 /// thirty-eighth round). A region's total is a sum over many pixels, so the OMC render knows it
 /// far better than any of its pixels, spikes and all.
 ///

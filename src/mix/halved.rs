@@ -236,7 +236,6 @@ impl Halved {
         (map, unseen)
     }
 
-    /// The means of each half's beauty (D + I).
     /// Per pixel, the factor that brings MMLT's render of α·I to this render's totals of the
     /// same light, region by region: each of the mask's segments inside it, and all of the
     /// image outside it as one (`estimate::regional_scale`); and, `[outside, inside]`, how much
@@ -268,6 +267,7 @@ impl Halved {
         (factors, change)
     }
 
+    /// The means of each half's beauty (D + I).
     pub(super) fn beauty_halves(&self) -> [Vec<[f32; 3]>; 2] {
         let [(da, ia), (db, ib)] = self.half_means();
         [add(&da, &ia), add(&db, &ib)]
@@ -296,7 +296,6 @@ pub(super) fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
-/// Which pixels the mask gives MMLT (`composite::is_complex`).
 /// Light times the mask's α, pixel by pixel: what MMLT's render estimates.
 fn times_alpha(light: &[[f32; 3]], alpha: &[f32]) -> Vec<[f32; 3]> {
     light
@@ -306,6 +305,7 @@ fn times_alpha(light: &[[f32; 3]], alpha: &[f32]) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// Which pixels the mask gives MMLT (`composite::is_complex`).
 fn complex_pixels(alpha: &[f32]) -> Vec<bool> {
     alpha
         .iter()
